@@ -1,0 +1,20 @@
+//! `postwarp-rtl`: the cycle-level hardware model of Mark's post-rendering 3D
+//! image warper (UNC TR98-011), and the plain data types it shares with the
+//! golden model in the `postwarp` crate.
+//!
+//! Architecture invariants (see `ARCHITECTURE.md` at the repository root):
+//! - this crate does no file I/O and knows nothing of trace files, scenes,
+//!   PNG/EXR files or the command line;
+//! - it never calls the golden model; the golden model never calls its units.
+//!   The two share only the plain data types in [`camera`], [`sample_image`],
+//!   [`cmd`] and [`fixed`].
+#![warn(missing_docs)]
+
+pub mod camera;
+pub mod cmd;
+pub mod fixed;
+pub mod sample_image;
+
+pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
+pub use cmd::{FrameCommands, ReferenceWarp};
+pub use sample_image::SampleImage;

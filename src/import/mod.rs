@@ -1,0 +1,1 @@
+//! Importers of real data (placeholder; being written).

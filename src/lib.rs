@@ -1,0 +1,19 @@
+//! `postwarp`: traces, the scene renderer, the golden model, comparison
+//! methods, metrics, reports and the `postwarp` command line, around the
+//! cycle-level hardware model in `postwarp-rtl`.
+//!
+//! Data flow: `trace` (files → [`trace::Trace`]) → `postwarp_rtl::cmd`
+//! (frame commands) → golden model | hardware units → images + stats →
+//! report. See `ARCHITECTURE.md`.
+
+pub mod cli;
+pub mod import;
+pub mod io_util;
+pub mod path;
+pub mod picture;
+pub mod progress;
+pub mod scene;
+pub mod trace;
+pub mod tracegen;
+
+pub use postwarp_rtl as rtl;

@@ -1,0 +1,1 @@
+//! Scene renderer (placeholder; being written).

@@ -1,0 +1,214 @@
+//! Trace format v1: a text manifest naming the display geometry, the
+//! reference frames (OpenEXR image + camera) and the derived frames to
+//! synthesize (camera, which references to warp, optional ground truth).
+//! The grammar is in `docs/trace-format.md`; this module is its only parser
+//! and writer.
+//!
+//! A trace is a directory holding the manifest [`MANIFEST_NAME`] and the
+//! images it names (paths relative to the manifest's directory).
+
+mod error;
+mod exr_io;
+mod parse;
+mod write;
+
+pub use error::TraceError;
+pub use exr_io::{
+    read_reference_image, read_truth_image, write_reference_image, write_truth_image,
+};
+pub use parse::parse_manifest;
+pub use write::{TraceWriter, format_manifest};
+
+use bitvec::vec::BitVec;
+use postwarp_rtl::{Camera, FrameCommands, SampleImage};
+use std::path::{Path, PathBuf};
+
+/// The manifest version this build reads and writes.
+pub const TRACE_VERSION: u32 = 1;
+/// File name of the manifest inside a trace directory.
+pub const MANIFEST_NAME: &str = "postwarp.trace";
+/// Largest accepted image side, in pixels.
+pub const MAX_SIDE: u32 = 16384;
+/// Largest accepted super-sampling factor (samples per pixel per axis).
+pub const MAX_SUPERSAMPLE: u32 = 4;
+/// Largest accepted number of samples in one image (2^28).
+pub const MAX_SAMPLES: u64 = 1 << 28;
+
+/// Display geometry: the derived frames' size and super-sampling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Display {
+    /// Derived-frame width (pixels).
+    pub width: u32,
+    /// Derived-frame height (pixels).
+    pub height: u32,
+    /// Super-samples per pixel along each axis (all images of the trace).
+    pub supersample: u32,
+}
+
+/// A reference frame: an image with depth, rendered (or captured) at `camera`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceFrame {
+    /// Time the frame stands for (seconds from the start of the trace).
+    pub time_s: f64,
+    /// Camera, in pixels (the image holds `supersample²` samples per pixel).
+    pub camera: Camera,
+    /// EXR image, relative to the trace directory.
+    pub image: PathBuf,
+}
+
+/// A derived frame: a viewpoint to synthesize from reference frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DerivedFrame {
+    /// Time of the frame (seconds from the start of the trace).
+    pub time_s: f64,
+    /// Camera, in display pixels (size = display size).
+    pub camera: Camera,
+    /// Indices of the reference frames to warp, in warp order.
+    pub references: Vec<usize>,
+    /// Ground-truth EXR image (display pixels), relative to the trace directory.
+    pub truth: Option<PathBuf>,
+}
+
+/// A parsed trace manifest.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Trace {
+    /// Display geometry.
+    pub display: Display,
+    /// Free-text notes (`note` statements), in order: provenance, units.
+    pub notes: Vec<String>,
+    /// Reference frames, by index.
+    pub references: Vec<ReferenceFrame>,
+    /// Derived frames, by index.
+    pub derived: Vec<DerivedFrame>,
+    /// Directory the image paths are relative to (not part of the manifest).
+    pub dir: PathBuf,
+    /// The manifest file this trace was read from (empty if built in memory).
+    pub manifest: PathBuf,
+}
+
+/// How a reference image's 1/Z slopes were obtained.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SlopeSource {
+    /// Supplied by the producer (channels `dinvz_dx`, `dinvz_dy`).
+    Exact,
+    /// Absent from the file: computed from depth by finite differences.
+    FiniteDifference,
+}
+
+impl SlopeSource {
+    /// Short name used in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            SlopeSource::Exact => "exact",
+            SlopeSource::FiniteDifference => "finite-difference",
+        }
+    }
+}
+
+/// A reference image as loaded: samples plus where the slopes came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedReference {
+    /// Per-sample planes.
+    pub samples: SampleImage,
+    /// Origin of `samples.inv_z_slopes`.
+    pub slopes: SlopeSource,
+}
+
+/// Ground truth at display resolution.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthImage {
+    /// Width (pixels).
+    pub width: u32,
+    /// Height (pixels).
+    pub height: u32,
+    /// Linear RGB per pixel.
+    pub colour: Vec<[f32; 3]>,
+    /// Set where the truth is known; metrics skip the other pixels.
+    pub known: BitVec,
+}
+
+impl Trace {
+    /// Read and check a trace: `path` is a trace directory or a manifest file.
+    /// Checks the manifest and that every image it names exists; image
+    /// contents are checked when loaded.
+    pub fn open(path: &Path) -> Result<Trace, TraceError> {
+        let manifest = if path.is_dir() {
+            path.join(MANIFEST_NAME)
+        } else {
+            path.to_path_buf()
+        };
+        let text = std::fs::read_to_string(&manifest).map_err(|e| TraceError::io(&manifest, &e))?;
+        let dir = manifest.parent().map(Path::to_path_buf).unwrap_or_default();
+        let mut trace = parse_manifest(&text, &manifest)?;
+        trace.dir = dir;
+        trace.manifest = manifest;
+        trace.check_images_exist(&text)?;
+        Ok(trace)
+    }
+
+    fn check_images_exist(&self, text: &str) -> Result<(), TraceError> {
+        let names = self
+            .references
+            .iter()
+            .map(|r| &r.image)
+            .chain(self.derived.iter().filter_map(|d| d.truth.as_ref()));
+        for name in names {
+            let full = self.dir.join(name);
+            if !full.is_file() {
+                let line = parse::line_mentioning(text, name);
+                return Err(TraceError::at(
+                    &self.manifest,
+                    line,
+                    format!("image file {} does not exist", full.display()),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of the manifest line that declares reference `i` (1-based), for
+    /// error messages about its image.
+    fn reference_line(&self, i: usize) -> Option<usize> {
+        let text = std::fs::read_to_string(&self.manifest).ok()?;
+        parse::statement_line(&text, "reference", i)
+    }
+
+    fn derived_line(&self, i: usize) -> Option<usize> {
+        let text = std::fs::read_to_string(&self.manifest).ok()?;
+        parse::statement_line(&text, "derived", i)
+    }
+
+    /// Load and check reference frame `i`'s image. Slopes absent from the
+    /// file are computed by finite differences (see [`SlopeSource`]).
+    pub fn load_reference(&self, i: usize) -> Result<LoadedReference, TraceError> {
+        let r = &self.references[i];
+        let ss = self.display.supersample;
+        let (w, h) = (
+            r.camera.intrinsics.width * ss,
+            r.camera.intrinsics.height * ss,
+        );
+        read_reference_image(&self.dir.join(&r.image), (w, h))
+            .map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
+    }
+
+    /// Load and check derived frame `i`'s ground truth, if it has one.
+    pub fn load_truth(&self, i: usize) -> Result<Option<TruthImage>, TraceError> {
+        let Some(p) = &self.derived[i].truth else {
+            return Ok(None);
+        };
+        read_truth_image(&self.dir.join(p), (self.display.width, self.display.height))
+            .map(Some)
+            .map_err(|e| e.referenced_from(&self.manifest, self.derived_line(i)))
+    }
+
+    /// The frame commands for derived frame `i`.
+    pub fn frame_commands(&self, i: usize) -> FrameCommands {
+        let d = &self.derived[i];
+        let refs: Vec<(usize, Camera)> = d
+            .references
+            .iter()
+            .map(|&r| (r, self.references[r].camera))
+            .collect();
+        FrameCommands::new(i, d.camera, self.display.supersample, &refs)
+    }
+}
