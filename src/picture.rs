@@ -11,27 +11,15 @@ use std::path::Path;
 /// sRGB EOTF: an 8-bit code to linear intensity in [0, 1].
 pub fn srgb_to_linear(code: u8) -> f32 {
     let c = code as f64 / 255.0;
-    let l = if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    };
+    let l = if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
     l as f32
 }
 
 /// Inverse sRGB EOTF, rounded to the nearest 8-bit code (clamped to [0, 1];
 /// NaN maps to 0).
 pub fn linear_to_srgb8(l: f32) -> u8 {
-    let l = if l.is_nan() {
-        0.0
-    } else {
-        (l as f64).clamp(0.0, 1.0)
-    };
-    let c = if l <= 0.0031308 {
-        l * 12.92
-    } else {
-        1.055 * l.powf(1.0 / 2.4) - 0.055
-    };
+    let l = if l.is_nan() { 0.0 } else { (l as f64).clamp(0.0, 1.0) };
+    let c = if l <= 0.0031308 { l * 12.92 } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 };
     (c * 255.0).round() as u8
 }
 
@@ -47,12 +35,8 @@ pub fn write_png(path: &Path, width: u32, height: u32, colour: &[[f32; 3]]) -> a
 
 /// Write 8-bit sRGB RGB bytes as a PNG (atomically).
 pub fn write_png_srgb8(path: &Path, width: u32, height: u32, rgb: Vec<u8>) -> anyhow::Result<()> {
-    let img = image::RgbImage::from_raw(width, height, rgb).ok_or_else(|| {
-        anyhow::anyhow!(
-            "{}: pixel buffer does not match {width}x{height}",
-            path.display()
-        )
-    })?;
+    let img = image::RgbImage::from_raw(width, height, rgb)
+        .ok_or_else(|| anyhow::anyhow!("{}: pixel buffer does not match {width}x{height}", path.display()))?;
     write_atomically(path, |tmp| {
         img.save_with_format(tmp, image::ImageFormat::Png)
             .map_err(|e| anyhow::anyhow!("{}: cannot write PNG: {e}", path.display()))
@@ -96,12 +80,7 @@ mod tests {
 
     #[test]
     fn box_filter_averages_blocks() {
-        let s = vec![
-            [0.0, 0.0, 0.0],
-            [1.0, 1.0, 1.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0],
-        ];
+        let s = vec![[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]];
         assert_eq!(box_filter(2, 2, 2, &s), vec![[0.5, 0.25, 0.5]]);
     }
 }

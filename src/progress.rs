@@ -10,11 +10,9 @@ pub fn bar(len: u64, what: &str) -> ProgressBar {
     if std::io::stderr().is_terminal() {
         pb.set_draw_target(ProgressDrawTarget::stderr());
         pb.set_style(
-            ProgressStyle::with_template(
-                "{msg:>12} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}",
-            )
-            .expect("static template")
-            .progress_chars("=> "),
+            ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+                .expect("static template")
+                .progress_chars("=> "),
         );
     } else {
         pb.set_draw_target(ProgressDrawTarget::hidden());

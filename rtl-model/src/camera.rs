@@ -37,23 +37,14 @@ impl Intrinsics {
     /// image centre.
     pub fn from_hfov(width: u32, height: u32, hfov_deg: f64) -> Intrinsics {
         let f = 0.5 * width as f64 / (0.5 * hfov_deg.to_radians()).tan();
-        Intrinsics {
-            width,
-            height,
-            fx: f,
-            fy: f,
-            cx: 0.5 * (width as f64 - 1.0),
-            cy: 0.5 * (height as f64 - 1.0),
-        }
+        Intrinsics { width, height, fx: f, fy: f, cx: 0.5 * (width as f64 - 1.0), cy: 0.5 * (height as f64 - 1.0) }
     }
 
     /// Horizontal and vertical field of view (degrees) covered by the image's
     /// pixel area (edge to edge).
     pub fn fov_deg(&self) -> (f64, f64) {
-        let h = ((self.cx + 0.5) / self.fx).atan()
-            + ((self.width as f64 - 0.5 - self.cx) / self.fx).atan();
-        let v = ((self.cy + 0.5) / self.fy).atan()
-            + ((self.height as f64 - 0.5 - self.cy) / self.fy).atan();
+        let h = ((self.cx + 0.5) / self.fx).atan() + ((self.width as f64 - 0.5 - self.cx) / self.fx).atan();
+        let v = ((self.cy + 0.5) / self.fy).atan() + ((self.height as f64 - 0.5 - self.cy) / self.fy).atan();
         (h.to_degrees(), v.to_degrees())
     }
 
@@ -91,10 +82,7 @@ impl Pose {
         // Camera y points down: y = z × x.
         let y = z.cross(x);
         let m = DMat3::from_cols(x, y, z);
-        Pose {
-            position,
-            orientation: DQuat::from_mat3(&m).normalize(),
-        }
+        Pose { position, orientation: DQuat::from_mat3(&m).normalize() }
     }
 
     /// Camera-to-world rotation matrix.
@@ -120,10 +108,7 @@ pub struct Camera {
 impl Camera {
     /// The same camera seen on its `ss x ss` super-sample grid.
     pub fn sample_grid(&self, ss: u32) -> Camera {
-        Camera {
-            intrinsics: self.intrinsics.sample_grid(ss),
-            pose: self.pose,
-        }
+        Camera { intrinsics: self.intrinsics.sample_grid(ss), pose: self.pose }
     }
 
     /// World-space direction (not normalised) of the ray through image point
@@ -141,10 +126,7 @@ impl Camera {
             return None;
         }
         let k = &self.intrinsics;
-        Some((
-            DVec2::new(k.fx * c.x / c.z + k.cx, k.fy * c.y / c.z + k.cy),
-            c.z,
-        ))
+        Some((DVec2::new(k.fx * c.x / c.z + k.cx, k.fy * c.y / c.z + k.cy), c.z))
     }
 
     /// World point seen at image point `(x, y)` at depth `z`.
@@ -159,10 +141,7 @@ impl Camera {
         let u = r * DVec3::new(1.0 / k.fx, 0.0, 0.0);
         let v = r * DVec3::new(0.0, 1.0 / k.fy, 0.0);
         let o = r * DVec3::new(-k.cx / k.fx, -k.cy / k.fy, 1.0);
-        PlanarCamera {
-            p: DMat3::from_cols(u, v, o),
-            centre: self.pose.position,
-        }
+        PlanarCamera { p: DMat3::from_cols(u, v, o), centre: self.pose.position }
     }
 }
 
@@ -228,16 +207,10 @@ impl Epipole {
             return EpipoleKind::Coincident;
         }
         if h.z.abs() <= Self::INFINITY_TOL * len {
-            return EpipoleKind::Infinity {
-                direction: DVec2::new(h.x, h.y).normalize(),
-            };
+            return EpipoleKind::Infinity { direction: DVec2::new(h.x, h.y).normalize() };
         }
         let point = DVec2::new(h.x / h.z, h.y / h.z);
-        if h.z > 0.0 {
-            EpipoleKind::Front { point }
-        } else {
-            EpipoleKind::Behind { point }
-        }
+        if h.z > 0.0 { EpipoleKind::Front { point } } else { EpipoleKind::Behind { point } }
     }
 
     /// The occlusion-compatible traversal direction at image point `p`:
@@ -305,9 +278,7 @@ impl WarpSetup {
             e_hat,
             s1: p1.s(),
             s2: p2.s(),
-            epipole_reference: Epipole {
-                h: p1_inv * (p2.centre - p1.centre),
-            },
+            epipole_reference: Epipole { h: p1_inv * (p2.centre - p1.centre) },
             epipole_derived: Epipole { h: e_hat },
         }
     }
@@ -319,11 +290,7 @@ impl WarpSetup {
         let delta = self.s1 * inv_z;
         let n = self.h * DVec3::new(x, y, 1.0) + self.e_hat * delta;
         let w = n.z;
-        Warped {
-            position: DVec2::new(n.x / w, n.y / w),
-            inv_z: delta / (self.s2 * w),
-            w,
-        }
+        Warped { position: DVec2::new(n.x / w, n.y / w), inv_z: delta / (self.s2 * w), w }
     }
 }
 
@@ -333,18 +300,8 @@ mod tests {
 
     fn cam(pos: DVec3, yaw_deg: f64) -> Camera {
         Camera {
-            intrinsics: Intrinsics {
-                width: 100,
-                height: 80,
-                fx: 50.0,
-                fy: 50.0,
-                cx: 49.5,
-                cy: 39.5,
-            },
-            pose: Pose {
-                position: pos,
-                orientation: DQuat::from_rotation_y(yaw_deg.to_radians()),
-            },
+            intrinsics: Intrinsics { width: 100, height: 80, fx: 50.0, fy: 50.0, cx: 49.5, cy: 39.5 },
+            pose: Pose { position: pos, orientation: DQuat::from_rotation_y(yaw_deg.to_radians()) },
         }
     }
 
@@ -370,19 +327,9 @@ mod tests {
 
     #[test]
     fn sample_grid_maps_pixel_centres() {
-        let k = Intrinsics {
-            width: 4,
-            height: 3,
-            fx: 10.0,
-            fy: 10.0,
-            cx: 1.5,
-            cy: 1.0,
-        };
+        let k = Intrinsics { width: 4, height: 3, fx: 10.0, fy: 10.0, cx: 1.5, cy: 1.0 };
         let s = k.sample_grid(2);
-        assert_eq!(
-            (s.width, s.height, s.fx, s.cx, s.cy),
-            (8, 6, 20.0, 3.5, 2.5)
-        );
+        assert_eq!((s.width, s.height, s.fx, s.cx, s.cy), (8, 6, 20.0, 3.5, 2.5));
         // Pixel 0 covers samples 0 and 1, whose centres are at pixel x = -0.25 and 0.25.
         let to_pixel = |xs: f64| (xs + 0.5) / 2.0 - 0.5;
         assert_eq!((to_pixel(0.0), to_pixel(1.0)), (-0.25, 0.25));
@@ -398,12 +345,7 @@ mod tests {
             let (p, z2) = d.project(world).unwrap();
             let w = s.warp(x, y, 1.0 / z);
             assert!(w.w > 0.0);
-            assert!(
-                (w.position - p).length() < 1e-9,
-                "{:?} vs {:?}",
-                w.position,
-                p
-            );
+            assert!((w.position - p).length() < 1e-9, "{:?} vs {:?}", w.position, p);
             assert!((w.inv_z - 1.0 / z2).abs() < 1e-12);
         }
     }
@@ -423,10 +365,7 @@ mod tests {
         }
         assert!(s.epipole_reference.inside(&r.intrinsics));
         // In the derived image the reference centre is straight behind.
-        assert!(matches!(
-            s.epipole_derived.kind(),
-            EpipoleKind::Behind { .. }
-        ));
+        assert!(matches!(s.epipole_derived.kind(), EpipoleKind::Behind { .. }));
     }
 
     #[test]
@@ -438,10 +377,7 @@ mod tests {
         let d = cam(DVec3::new(1.0, 0.0, -2.0), 0.0);
         let s = WarpSetup::new(&r, &d);
         let e = s.epipole_reference.h;
-        assert!(
-            (e - DVec3::new(50.0 - 99.0, -79.0, -2.0)).length() < 1e-9,
-            "{e:?}"
-        );
+        assert!((e - DVec3::new(50.0 - 99.0, -79.0, -2.0)).length() < 1e-9, "{e:?}");
         match s.epipole_reference.kind() {
             EpipoleKind::Behind { point } => {
                 assert!((point - DVec2::new(24.5, 39.5)).length() < 1e-9)
@@ -462,19 +398,12 @@ mod tests {
             k => panic!("expected infinity, got {k:?}"),
         }
         // The occlusion-compatible direction is the same constant everywhere.
-        assert_eq!(
-            s.epipole_reference.direction_at(DVec2::new(3.0, 7.0)),
-            DVec2::new(25.0, 0.0)
-        );
+        assert_eq!(s.epipole_reference.direction_at(DVec2::new(3.0, 7.0)), DVec2::new(25.0, 0.0));
     }
 
     #[test]
     fn look_at_points_the_optical_axis() {
-        let p = Pose::look_at(
-            DVec3::new(1.0, 0.0, 0.0),
-            DVec3::new(1.0, 0.0, 5.0),
-            DVec3::new(0.0, -1.0, 0.0),
-        );
+        let p = Pose::look_at(DVec3::new(1.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 5.0), DVec3::new(0.0, -1.0, 0.0));
         let fwd = p.orientation * DVec3::Z;
         assert!((fwd - DVec3::Z).length() < 1e-12);
         // up = −y world: camera y (down) must be world +y.

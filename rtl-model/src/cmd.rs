@@ -45,18 +45,9 @@ impl FrameCommands {
             .iter()
             .map(|&(reference, cam)| {
                 let src = cam.sample_grid(supersample);
-                ReferenceWarp {
-                    reference,
-                    reference_camera: src,
-                    setup: WarpSetup::new(&src, &dst),
-                }
+                ReferenceWarp { reference, reference_camera: src, setup: WarpSetup::new(&src, &dst) }
             })
             .collect();
-        FrameCommands {
-            derived,
-            derived_camera,
-            supersample,
-            warps,
-        }
+        FrameCommands { derived, derived_camera, supersample, warps }
     }
 }

@@ -64,11 +64,7 @@ impl Q16_16 {
     pub fn saturating_mul(self, o: Q16_16) -> Q16_16 {
         let p = self.0 as i64 * o.0 as i64;
         let half = 1i64 << 15;
-        let r = if p >= 0 {
-            (p + half) >> 16
-        } else {
-            -((-p + half) >> 16)
-        };
+        let r = if p >= 0 { (p + half) >> 16 } else { -((-p + half) >> 16) };
         Q16_16(r.clamp(i32::MIN as i64, i32::MAX as i64) as i32)
     }
 }
@@ -86,12 +82,7 @@ mod tests {
         assert_eq!(Q16_16::from_f64(2.0).ceil(), 2);
         assert_eq!(Q16_16::from_f64(1e9), Q16_16::MAX);
         assert_eq!(Q16_16::from_f64(f64::NAN), Q16_16(0));
-        assert_eq!(
-            Q16_16::from_f64(3.0)
-                .saturating_mul(Q16_16::from_f64(-0.25))
-                .to_f64(),
-            -0.75
-        );
+        assert_eq!(Q16_16::from_f64(3.0).saturating_mul(Q16_16::from_f64(-0.25)).to_f64(), -0.75);
     }
 
     proptest! {

@@ -77,11 +77,7 @@ impl SampleImage {
     pub fn slopes_from_depth(&mut self) {
         let (w, h) = (self.width as usize, self.height as usize);
         let inv = |s: &SampleImage, i: usize| {
-            if s.valid[i] {
-                Some(1.0 / s.z[i] as f64)
-            } else {
-                None
-            }
+            if s.valid[i] { Some(1.0 / s.z[i] as f64) } else { None }
         };
         let mut out = vec![[0.0f32; 2]; self.len()];
         for y in 0..h {
@@ -94,14 +90,10 @@ impl SampleImage {
                     (None, Some(n)) => n - c,
                     (None, None) => 0.0,
                 };
-                let gx = axis(
-                    if x > 0 { inv(self, i - 1) } else { None },
-                    if x + 1 < w { inv(self, i + 1) } else { None },
-                );
-                let gy = axis(
-                    if y > 0 { inv(self, i - w) } else { None },
-                    if y + 1 < h { inv(self, i + w) } else { None },
-                );
+                let gx =
+                    axis(if x > 0 { inv(self, i - 1) } else { None }, if x + 1 < w { inv(self, i + 1) } else { None });
+                let gy =
+                    axis(if y > 0 { inv(self, i - w) } else { None }, if y + 1 < h { inv(self, i + w) } else { None });
                 out[i] = [gx as f32, gy as f32];
             }
         }
@@ -129,16 +121,8 @@ mod tests {
         s.valid.set(hole, false);
         s.slopes_from_depth();
         for i in s.valid.iter_ones() {
-            assert!(
-                (s.inv_z_slopes[i][0] - 0.01).abs() < 1e-5,
-                "{i}: {:?}",
-                s.inv_z_slopes[i]
-            );
-            assert!(
-                (s.inv_z_slopes[i][1] + 0.02).abs() < 1e-5,
-                "{i}: {:?}",
-                s.inv_z_slopes[i]
-            );
+            assert!((s.inv_z_slopes[i][0] - 0.01).abs() < 1e-5, "{i}: {:?}", s.inv_z_slopes[i]);
+            assert!((s.inv_z_slopes[i][1] + 0.02).abs() < 1e-5, "{i}: {:?}", s.inv_z_slopes[i]);
         }
         assert_eq!(s.depth_range().map(|(a, b)| a < b), Some(true));
     }

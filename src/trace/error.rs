@@ -20,12 +20,7 @@ pub struct TraceError {
 impl TraceError {
     /// An error at a line of a file.
     pub fn at(file: &Path, line: Option<usize>, message: impl Into<String>) -> TraceError {
-        TraceError {
-            file: file.to_path_buf(),
-            line,
-            message: message.into(),
-            referenced_from: None,
-        }
+        TraceError { file: file.to_path_buf(), line, message: message.into(), referenced_from: None }
     }
 
     /// An error about a whole file.
@@ -67,11 +62,6 @@ impl std::error::Error for TraceError {}
 
 impl From<std::io::Error> for TraceError {
     fn from(e: std::io::Error) -> Self {
-        TraceError {
-            file: PathBuf::new(),
-            line: None,
-            message: e.to_string(),
-            referenced_from: None,
-        }
+        TraceError { file: PathBuf::new(), line: None, message: e.to_string(), referenced_from: None }
     }
 }

@@ -5,11 +5,7 @@ pub fn read_reference_image(_p: &Path, _s: (u32, u32)) -> Result<LoadedReference
 pub fn read_truth_image(_p: &Path, _s: (u32, u32)) -> Result<TruthImage, TraceError> {
     unimplemented!()
 }
-pub fn write_reference_image(
-    _p: &Path,
-    _i: &SampleImage,
-    _s: SlopeSource,
-) -> Result<(), TraceError> {
+pub fn write_reference_image(_p: &Path, _i: &SampleImage, _s: SlopeSource) -> Result<(), TraceError> {
     unimplemented!()
 }
 pub fn write_truth_image(_p: &Path, _t: &TruthImage) -> Result<(), TraceError> {

@@ -13,9 +13,7 @@ mod parse;
 mod write;
 
 pub use error::TraceError;
-pub use exr_io::{
-    read_reference_image, read_truth_image, write_reference_image, write_truth_image,
-};
+pub use exr_io::{read_reference_image, read_truth_image, write_reference_image, write_truth_image};
 pub use parse::parse_manifest;
 pub use write::{TraceWriter, format_manifest};
 
@@ -132,11 +130,7 @@ impl Trace {
     /// Checks the manifest and that every image it names exists; image
     /// contents are checked when loaded.
     pub fn open(path: &Path) -> Result<Trace, TraceError> {
-        let manifest = if path.is_dir() {
-            path.join(MANIFEST_NAME)
-        } else {
-            path.to_path_buf()
-        };
+        let manifest = if path.is_dir() { path.join(MANIFEST_NAME) } else { path.to_path_buf() };
         let text = std::fs::read_to_string(&manifest).map_err(|e| TraceError::io(&manifest, &e))?;
         let dir = manifest.parent().map(Path::to_path_buf).unwrap_or_default();
         let mut trace = parse_manifest(&text, &manifest)?;
@@ -147,11 +141,8 @@ impl Trace {
     }
 
     fn check_images_exist(&self, text: &str) -> Result<(), TraceError> {
-        let names = self
-            .references
-            .iter()
-            .map(|r| &r.image)
-            .chain(self.derived.iter().filter_map(|d| d.truth.as_ref()));
+        let names =
+            self.references.iter().map(|r| &r.image).chain(self.derived.iter().filter_map(|d| d.truth.as_ref()));
         for name in names {
             let full = self.dir.join(name);
             if !full.is_file() {
@@ -183,10 +174,7 @@ impl Trace {
     pub fn load_reference(&self, i: usize) -> Result<LoadedReference, TraceError> {
         let r = &self.references[i];
         let ss = self.display.supersample;
-        let (w, h) = (
-            r.camera.intrinsics.width * ss,
-            r.camera.intrinsics.height * ss,
-        );
+        let (w, h) = (r.camera.intrinsics.width * ss, r.camera.intrinsics.height * ss);
         read_reference_image(&self.dir.join(&r.image), (w, h))
             .map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
     }
@@ -204,11 +192,7 @@ impl Trace {
     /// The frame commands for derived frame `i`.
     pub fn frame_commands(&self, i: usize) -> FrameCommands {
         let d = &self.derived[i];
-        let refs: Vec<(usize, Camera)> = d
-            .references
-            .iter()
-            .map(|&r| (r, self.references[r].camera))
-            .collect();
+        let refs: Vec<(usize, Camera)> = d.references.iter().map(|&r| (r, self.references[r].camera)).collect();
         FrameCommands::new(i, d.camera, self.display.supersample, &refs)
     }
 }
