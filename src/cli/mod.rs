@@ -1,6 +1,54 @@
-//! The `postwarp` command line (placeholder; being written).
+//! The `postwarp` command line. One file per subcommand; each parses its
+//! flags with clap and calls into the library.
 
-/// Entry point.
-pub fn main() -> std::process::ExitCode {
-    std::process::ExitCode::SUCCESS
+mod import;
+mod info;
+mod make_trace;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Post-rendering 3D image warping: traces, a CPU golden model and a
+/// cycle-level hardware model of Mark's warper (UNC TR98-011).
+#[derive(Parser, Debug)]
+#[command(name = "postwarp", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Print a summary of a trace: frames, resolutions, depth range, and the
+    /// epipole of each derived frame relative to each of its references.
+    Info(info::Args),
+    /// Render a built-in (or user) scene along a camera path into a trace:
+    /// reference frames at 5 Hz at predicted viewpoints, derived frames at
+    /// 30 Hz with ground truth.
+    MakeTrace(make_trace::Args),
+    /// Convert a Middlebury 2014 stereo folder (im0.png, im1.png, disp0.pfm,
+    /// calib.txt) into a trace: left view = reference, right camera = derived
+    /// frame, right photo = ground truth.
+    ImportMiddlebury(import::Args),
+}
+
+/// Parse the process arguments and run; errors are printed to stderr.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Run a parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Info(a) => info::run(a),
+        Command::MakeTrace(a) => make_trace::run(a),
+        Command::ImportMiddlebury(a) => import::run(a),
+    }
 }

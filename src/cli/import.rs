@@ -1,0 +1,41 @@
+//! `postwarp import-middlebury`: a Middlebury 2014 stereo folder → trace.
+
+use crate::picture::{box_filter, write_png};
+use crate::trace::Trace;
+use std::path::{Path, PathBuf};
+
+/// Flags of `postwarp import-middlebury`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Middlebury 2014 folder with im0.png, im1.png, disp0.pfm, calib.txt.
+    pub dir: PathBuf,
+    /// Output trace directory.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let manifest = crate::import::middlebury::import_middlebury(&a.dir, &a.out)?;
+    write_previews(&manifest)?;
+    eprintln!("wrote {}", manifest.display());
+    Ok(())
+}
+
+/// PNG previews next to a trace: `preview/ref-NNNN.png` (box-filtered
+/// colour) and `preview/truth-NNNN.png`, for people to look at.
+pub fn write_previews(manifest: &Path) -> anyhow::Result<()> {
+    let t = Trace::open(manifest)?;
+    let dir = t.dir.join("preview");
+    let ss = t.display.supersample;
+    for i in 0..t.references.len() {
+        let r = t.load_reference(i)?.samples;
+        let px = box_filter(r.width, r.height, ss, &r.colour);
+        write_png(&dir.join(format!("ref-{i:04}.png")), r.width / ss, r.height / ss, &px)?;
+    }
+    for i in 0..t.derived.len() {
+        if let Some(truth) = t.load_truth(i)? {
+            write_png(&dir.join(format!("truth-{i:04}.png")), truth.width, truth.height, &truth.colour)?;
+        }
+    }
+    Ok(())
+}
