@@ -1,1 +1,220 @@
-//! Scene renderer (placeholder; being written).
+//! The deterministic CPU scene renderer that makes synthetic traces.
+//!
+//! A [`Scene`] is loaded from a TOML description (a built-in one, embedded
+//! from `scenes/`, or a user file; format in `docs/scene-format.md`) and
+//! rendered by casting one ray per super-sample ([`Scene::render`]). For
+//! every sample it yields linear RGB colour, depth `Z` along the optical
+//! axis, the exact screen-space slopes of 1/Z from the tangent plane at the
+//! hit, the object id (1-based position in the scene file) and whether a
+//! surface was hit. It also carries the camera paths the trace generator
+//! follows through the scene ([`SplineSpec`], [`TrackedSpec`]).
+//!
+//! Rules: world units are metres, y is up; intersection in `f64`; the
+//! result depends only on the scene and the camera (same bytes for any
+//! thread count); user input never causes a panic, only a [`SceneError`].
+//!
+//! Not modelled: shadows, reflections, transparency, view-dependent
+//! shading, lights other than one directional light plus ambient, motion
+//! within a frame. Files: `description` (format), `geometry` (analytic
+//! shapes), `mesh` (OBJ meshes), `bvh`, `texture`, `world` (objects and the
+//! nearest-hit query), `render`, `builtin` (embedded scenes and models).
+
+mod builtin;
+mod bvh;
+mod description;
+mod geometry;
+mod mesh;
+mod render;
+mod texture;
+mod world;
+
+use glam::DVec3;
+use serde::{Deserialize, Deserializer};
+use std::fmt;
+use std::path::Path;
+
+/// A camera waypoint: where the camera is and what it looks at (world,
+/// metres; the camera's up is world +y).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Waypoint {
+    /// Centre of projection.
+    #[serde(deserialize_with = "de_vec3")]
+    pub position: DVec3,
+    /// Point on the optical axis.
+    #[serde(deserialize_with = "de_vec3")]
+    pub look_at: DVec3,
+}
+
+fn de_vec3<'de, D: Deserializer<'de>>(d: D) -> Result<DVec3, D::Error> {
+    <[f64; 3]>::deserialize(d).map(DVec3::from)
+}
+
+/// The camera path for `--path spline`: a Catmull-Rom spline through the
+/// waypoints, travelled in `duration_s` seconds. At least 2 waypoints.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SplineSpec {
+    /// Waypoints in order (>= 2).
+    pub waypoints: Vec<Waypoint>,
+    /// Time to travel the whole path (seconds, > 0).
+    pub duration_s: f64,
+}
+
+/// Where a recorded head trajectory (relative motion) is placed: its first
+/// pose maps to `start`, and its translations are multiplied by `scale`.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackedSpec {
+    /// Pose the recorded trajectory starts from.
+    pub start: Waypoint,
+    /// Factor on the recorded translations (> 0).
+    pub scale: f64,
+}
+
+/// Why a scene could not be loaded. The message names the scene (file path
+/// or `builtin:<name>`) and, where it applies, the line, object or key and
+/// what was expected.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneError {
+    origin: String,
+    message: String,
+}
+
+impl SceneError {
+    fn new(origin: &str, message: impl Into<String>) -> SceneError {
+        SceneError { origin: origin.to_string(), message: message.into() }
+    }
+
+    /// The scene the error is about (file path or `builtin:<name>`).
+    pub fn origin(&self) -> &str {
+        &self.origin
+    }
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        if self.message.contains('\n') {
+            // Multi-line TOML diagnostics read better starting on their own line.
+            write!(f, "{}:\n{}", self.origin, self.message)
+        } else {
+            write!(f, "{}: {}", self.origin, self.message)
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A loaded, renderable scene.
+pub struct Scene {
+    /// Short name (`name` key, else the file stem).
+    pub name: String,
+    /// One-paragraph description.
+    pub description: String,
+    /// Camera path for `--path spline`.
+    pub spline: SplineSpec,
+    /// Placement of recorded trajectories for `--path tracked`.
+    pub tracked: TrackedSpec,
+    background: [f32; 3],
+    /// Unit vector toward the light.
+    to_light: DVec3,
+    ambient: f32,
+    world: world::World,
+}
+
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Scene")
+            .field("name", &self.name)
+            .field("objects", &self.world.objects.len())
+            .field("materials", &self.world.materials.len())
+            .field("spline", &self.spline)
+            .field("tracked", &self.tracked)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Scene {
+    /// Names of the built-in scenes.
+    pub fn builtin_names() -> &'static [&'static str] {
+        &builtin::SCENE_NAMES
+    }
+
+    /// The TOML text of a built-in scene (what `scenes/<name>.toml` holds).
+    pub fn builtin_source(name: &str) -> Option<&'static str> {
+        builtin::SCENES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+    }
+
+    /// A built-in scene by name.
+    pub fn builtin(name: &str) -> Result<Scene, SceneError> {
+        match Scene::builtin_source(name) {
+            Some(text) => Scene::from_toml_str(text, None, &format!("builtin:{name}")),
+            None => Err(SceneError::new(
+                name,
+                format!("no built-in scene of that name (built-in scenes: {})", builtin::SCENE_NAMES.join(", ")),
+            )),
+        }
+    }
+
+    /// Load a scene description file; relative model paths are resolved
+    /// against its directory.
+    pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError::new(&origin, format!("cannot read scene file: {e}")))?;
+        let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Scene::from_toml_str(&text, Some(dir), &origin)
+    }
+
+    /// A built-in scene if `name_or_path` is one of [`Scene::builtin_names`],
+    /// else a scene file.
+    pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+        if builtin::SCENE_NAMES.contains(&name_or_path) {
+            return Scene::builtin(name_or_path);
+        }
+        let path = Path::new(name_or_path);
+        if !path.exists() && path.extension().is_none() && !name_or_path.contains(['/', '\\']) {
+            return Err(SceneError::new(
+                name_or_path,
+                format!(
+                    "neither a built-in scene ({}) nor an existing scene file",
+                    builtin::SCENE_NAMES.join(", ")
+                ),
+            ));
+        }
+        Scene::from_file(path)
+    }
+
+    /// Parse a scene description. `base_dir` resolves relative model and
+    /// texture paths (the current directory if `None`); `origin` names the
+    /// scene in error messages.
+    pub fn from_toml_str(text: &str, base_dir: Option<&Path>, origin: &str) -> Result<Scene, SceneError> {
+        let c = description::compile(text, base_dir, origin)?;
+        Ok(Scene {
+            name: c.name,
+            description: c.description,
+            spline: c.spline,
+            tracked: c.tracked,
+            background: c.background,
+            to_light: c.to_light,
+            ambient: c.ambient,
+            world: c.world,
+        })
+    }
+
+    /// Number of objects (object ids run from 1 to this).
+    pub fn object_count(&self) -> usize {
+        self.world.objects.len()
+    }
+
+    /// Colour of rays that hit nothing (linear RGB).
+    pub fn background(&self) -> [f32; 3] {
+        self.background
+    }
+
+    /// Render `camera` (in pixels) at `ss x ss` samples per pixel: result is
+    /// `width·ss x height·ss` samples (empty if `ss` is 0).
+    pub fn render(&self, camera: &postwarp_rtl::Camera, ss: u32) -> postwarp_rtl::SampleImage {
+        render::render(self, camera, ss)
+    }
+}

@@ -193,10 +193,9 @@ impl Channels {
         for name in ["R", "G", "B"] {
             planes.push(self.f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
         }
-        let n = planes[0].len();
-        let mut out = Vec::with_capacity(n);
-        for i in 0..n {
-            let c = [planes[0][i], planes[1][i], planes[2][i]];
+        let mut out = Vec::with_capacity(planes[0].len());
+        for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
+            let c = [*r, *g, *b];
             if !c.iter().all(|v| v.is_finite()) {
                 return Err(self.err(format!("pixel {i}: colour {c:?} is not finite")));
             }
