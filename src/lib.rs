@@ -8,6 +8,7 @@
 
 #[cfg(any())] // PENDING
 pub mod cli;
+pub mod golden;
 pub mod import;
 pub mod io_util;
 pub mod path;

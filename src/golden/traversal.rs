@@ -1,0 +1,256 @@
+//! Eight-sheet occlusion-compatible traversal of an image around an epipole
+//! (McMillan & Bishop's order in the eight-sheet variant TR98 §9 cites;
+//! `warper-reference.md` §2).
+//!
+//! Rules:
+//! 1. The occlusion-compatible direction at pixel `p` is
+//!    `D(p) = (ex − px·ew, ey − py·ew)`; the *forward* order visits samples in
+//!    increasing order along `D` (toward a front epipole, away from a behind
+//!    one). On one epipolar line, a sample nearer the other camera is visited
+//!    later.
+//! 2. A finite epipole `e` splits the image into up to eight octants by the
+//!    lines `x = ex`, `y = ey` and the diagonals. A sample belongs to a
+//!    *vertical* octant if `|py − ey| ≥ |px − ex|` (ties go vertical), else to
+//!    a horizontal one; quadrants by `px ≥ ex`, `py ≥ ey`. Vertical octants
+//!    are scanned row-major, horizontal ones column-major, so every
+//!    8-neighbour `q` visited after `p` in the same octant has
+//!    `(q − p)·D ≥ 0` (the discrete pitfall of a 4-sheet order).
+//! 3. Rows (columns) are visited in the order of the sign of `Dy` (`Dx`),
+//!    and samples within them in the order of the other component's sign.
+//! 4. Epipole at infinity (`ew = 0`): one sheet; row-major if
+//!    `|Dy| ≥ |Dx|`, else column-major. Coincident centres: row-major.
+//! 5. Octants are visited in a fixed order (the order does not matter for
+//!    occlusion, because every epipolar half-line stays within one octant).
+//! 6. The warp uses the *reverse* of this order in the reference image, so
+//!    that its sweep front crosses the derived image in the hole-fill order
+//!    (`warper-reference.md` §5, critical consistency point).
+//!
+//! Not modelled here: tile order (the hardware schedule), seams between
+//! octants near the epipole (adjacent samples on different octants may be
+//! visited in either order).
+
+use glam::DVec2;
+use postwarp_rtl::camera::{Epipole, EpipoleKind};
+
+/// Which axis a sheet is scanned along.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Major {
+    /// Row by row (|Dy| ≥ |Dx| in the sheet).
+    Row,
+    /// Column by column.
+    Column,
+}
+
+/// One sheet: the samples it holds, in visiting order, and how it is scanned.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sheet {
+    /// Scan axis.
+    pub major: Major,
+    /// Step between successive rows (Row) or columns (Column): +1 or −1.
+    pub line_step: i32,
+    /// Step within a row (Row) or column (Column): +1 or −1.
+    pub step: i32,
+    /// Samples in visiting order.
+    pub samples: Vec<(u32, u32)>,
+}
+
+/// The forward occlusion-compatible order of a `width x height` image for
+/// `epipole` (in that image's sample coordinates), as a list of sheets.
+pub fn sheets(width: u32, height: u32, epipole: &Epipole) -> Vec<Sheet> {
+    match epipole.kind() {
+        EpipoleKind::Coincident => vec![single(width, height, DVec2::new(0.0, 1.0))],
+        EpipoleKind::Infinity { .. } => vec![single(width, height, DVec2::new(epipole.h.x, epipole.h.y))],
+        EpipoleKind::Front { point } => octants(width, height, point, 1.0),
+        EpipoleKind::Behind { point } => octants(width, height, point, -1.0),
+    }
+}
+
+/// The forward order as one flat list.
+pub fn order(width: u32, height: u32, epipole: &Epipole) -> Vec<(u32, u32)> {
+    sheets(width, height, epipole).into_iter().flat_map(|s| s.samples).collect()
+}
+
+fn sign(v: f64) -> i32 {
+    if v < 0.0 { -1 } else { 1 }
+}
+
+fn single(width: u32, height: u32, d: DVec2) -> Sheet {
+    let (major, line_step, step) =
+        if d.y.abs() >= d.x.abs() { (Major::Row, sign(d.y), sign(d.x)) } else { (Major::Column, sign(d.x), sign(d.y)) };
+    let mut s = Sheet { major, line_step, step, samples: Vec::with_capacity(width as usize * height as usize) };
+    scan(&mut s, width, height, |_, _| true);
+    s
+}
+
+/// Visit every sample of the sheet's scan pattern over the image for which
+/// `member` holds.
+fn scan(s: &mut Sheet, width: u32, height: u32, member: impl Fn(u32, u32) -> bool) {
+    let (lines, len) = match s.major {
+        Major::Row => (height, width),
+        Major::Column => (width, height),
+    };
+    let ordered = |n: u32, step: i32| -> Box<dyn Iterator<Item = u32>> {
+        if step > 0 { Box::new(0..n) } else { Box::new((0..n).rev()) }
+    };
+    for l in ordered(lines, s.line_step) {
+        for i in ordered(len, s.step) {
+            let (x, y) = match s.major {
+                Major::Row => (i, l),
+                Major::Column => (l, i),
+            };
+            if member(x, y) {
+                s.samples.push((x, y));
+            }
+        }
+    }
+}
+
+/// Octant of sample `(x, y)` around `e`: (vertical?, right?, below?).
+pub fn octant_of(x: u32, y: u32, e: DVec2) -> (bool, bool, bool) {
+    let dx = x as f64 - e.x;
+    let dy = y as f64 - e.y;
+    (dy.abs() >= dx.abs(), dx >= 0.0, dy >= 0.0)
+}
+
+fn octants(width: u32, height: u32, e: DVec2, ew_sign: f64) -> Vec<Sheet> {
+    let mut out = Vec::new();
+    for vertical in [true, false] {
+        for right in [true, false] {
+            for below in [true, false] {
+                // D = ew·(e − p): inside this octant its component signs are fixed.
+                let dx_sign = if right { -ew_sign } else { ew_sign };
+                let dy_sign = if below { -ew_sign } else { ew_sign };
+                let (major, line_step, step) = if vertical {
+                    (Major::Row, sign(dy_sign), sign(dx_sign))
+                } else {
+                    (Major::Column, sign(dx_sign), sign(dy_sign))
+                };
+                let mut s = Sheet { major, line_step, step, samples: Vec::new() };
+                scan_octant(&mut s, width, height, e, (vertical, right, below));
+                if !s.samples.is_empty() {
+                    out.push(s);
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Scan only the candidate band of each line that can hold octant samples
+/// (|offset along the line| ≤ |distance of the line from e|, plus one sample
+/// of margin), checking membership exactly with [`octant_of`].
+fn scan_octant(s: &mut Sheet, width: u32, height: u32, e: DVec2, which: (bool, bool, bool)) {
+    let (lines, len, el, ei) = match s.major {
+        Major::Row => (height, width, e.y, e.x),
+        Major::Column => (width, height, e.x, e.y),
+    };
+    let line_iter: Box<dyn Iterator<Item = u32>> =
+        if s.line_step > 0 { Box::new(0..lines) } else { Box::new((0..lines).rev()) };
+    for l in line_iter {
+        let reach = (l as f64 - el).abs();
+        let lo = (ei - reach - 1.0).floor().max(0.0);
+        let hi = (ei + reach + 1.0).ceil().min(len as f64 - 1.0);
+        if lo > hi {
+            continue;
+        }
+        let (lo, hi) = (lo as u32, hi as u32);
+        let mut push = |i: u32| {
+            let (x, y) = match s.major {
+                Major::Row => (i, l),
+                Major::Column => (l, i),
+            };
+            if octant_of(x, y, e) == which {
+                s.samples.push((x, y));
+            }
+        };
+        if s.step > 0 {
+            (lo..=hi).for_each(&mut push);
+        } else {
+            (lo..=hi).rev().for_each(&mut push);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    fn check_permutation(w: u32, h: u32, o: &[(u32, u32)]) {
+        let mut seen = vec![false; (w * h) as usize];
+        for &(x, y) in o {
+            assert!(!seen[(y * w + x) as usize], "({x},{y}) twice");
+            seen[(y * w + x) as usize] = true;
+        }
+        assert!(seen.iter().all(|&s| s), "not every sample visited");
+    }
+
+    /// Within each sheet, every 8-neighbour visited later lies ahead along D.
+    fn check_neighbours_ahead(w: u32, h: u32, e: &Epipole) {
+        for sheet in sheets(w, h, e) {
+            let mut pos = std::collections::HashMap::new();
+            for (k, &p) in sheet.samples.iter().enumerate() {
+                pos.insert(p, k);
+            }
+            for (k, &(x, y)) in sheet.samples.iter().enumerate() {
+                let d = e.direction_at(DVec2::new(x as f64, y as f64));
+                for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+                    let q = (x as i64 + dx, y as i64 + dy);
+                    if q.0 < 0 || q.1 < 0 {
+                        continue;
+                    }
+                    if let Some(&kq) = pos.get(&(q.0 as u32, q.1 as u32))
+                        && kq > k
+                    {
+                        let dot = dx as f64 * d.x + dy as f64 * d.y;
+                        assert!(
+                            dot >= -1e-9,
+                            "sheet {:?}: ({x},{y}) then ({},{}) against D {d:?}",
+                            sheet.major,
+                            q.0,
+                            q.1
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_case_visits_each_sample_once_in_compatible_order() {
+        let (w, h) = (13u32, 9u32);
+        // (epipole point, ew) for finite epipoles: h = (px·ew, py·ew, ew).
+        let finite = [
+            ((6.3, 4.1), 1.0),    // inside, front
+            ((6.3, 4.1), -2.0),   // inside, behind
+            ((-3.0, 4.0), 1.0),   // left of the image
+            ((20.0, -5.0), 0.5),  // above right
+            ((20.0, 30.0), -1.0), // below right, behind
+            ((6.0, 4.0), 1.0),    // exactly on a sample
+        ];
+        let mut cases: Vec<DVec3> = finite.iter().map(|&((x, y), w)| DVec3::new(x * w, y * w, w)).collect();
+        cases.push(DVec3::new(1.0, 0.2, 0.0)); // infinity, mostly x
+        cases.push(DVec3::new(-0.1, -1.0, 0.0)); // infinity, mostly y
+        cases.push(DVec3::ZERO); // coincident centres
+        for hv in cases {
+            let e = Epipole { h: hv };
+            let o = order(w, h, &e);
+            check_permutation(w, h, &o);
+            check_neighbours_ahead(w, h, &e);
+        }
+    }
+
+    #[test]
+    fn front_epipole_ends_its_sheet_and_behind_starts_it() {
+        let e = Epipole { h: DVec3::new(5.0, 5.0, 1.0) };
+        let s = sheets(11, 11, &e);
+        let own = s.iter().find(|s| s.samples.contains(&(5, 5))).unwrap();
+        assert_eq!(*own.samples.last().unwrap(), (5, 5));
+        let b = Epipole { h: DVec3::new(-5.0, -5.0, -1.0) };
+        let s = sheets(11, 11, &b);
+        let own = s.iter().find(|s| s.samples.contains(&(5, 5))).unwrap();
+        assert_eq!(own.samples[0], (5, 5));
+        // An epipole inside the image gives eight non-empty sheets.
+        assert_eq!(s.len(), 8);
+    }
+}
