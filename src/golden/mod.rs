@@ -5,4 +5,7 @@
 //!
 //! File names match the hardware units in `rtl-model/src/units/`.
 
+pub mod abuffer;
+pub mod config;
+pub mod planes;
 pub mod traversal;

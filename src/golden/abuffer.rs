@@ -1,0 +1,421 @@
+//! A-buffer: frames between warps held as at most `N` fragments per pixel
+//! (TR98 §10, after Carpenter), expanded to samples for the warp.
+//!
+//! A fragment holds a colour, a 1/Z plane (value at the pixel centre and
+//! slopes per sample step), a coverage mask over the pixel's `ss²` samples,
+//! and for derived frames the source number, the hole-fill flag and the
+//! hole-fill weight.
+//!
+//! Rules:
+//! 1. Grouping: samples of a pixel are visited in raster order; a sample
+//!    joins the first fragment of the same kind (real / hole fill) and key
+//!    (source for derived frames, object id for reference frames) whose
+//!    plane predicts its 1/Z within the Z tolerance
+//!    `slope_tol·|slopes|₁ + rel_tol·1/Z`; hole-fill samples of a pixel form
+//!    one fragment. Otherwise it starts a new fragment whose plane passes
+//!    through it. Empty samples belong to no fragment.
+//! 2. A fragment's colour is the mean of its samples' colours (coverage
+//!    weighted); its hole-fill weight the mean of theirs.
+//! 3. More than `N` fragments: repeatedly merge the pair that is closest by
+//!    (different kind, different key, |Δ 1/Z at the centre|), ties to the
+//!    lowest indices; the merged fragment takes the union of the masks, the
+//!    coverage-weighted colour, and the plane, kind and key of the fragment
+//!    with more coverage (ties: the nearer). Each merge is counted.
+//! 4. Expansion gives every covered sample the fragment's colour and the
+//!    plane's 1/Z at the sample. Hence expand(compress(x)) == x whenever
+//!    every pixel of x holds at most `N` flat-coloured planar fragments
+//!    (x itself an expansion); resolved pixel colours are kept by rule 2.
+//!
+//! Not modelled: Carpenter's opacity/area and zmin/zmax; a fixed-point
+//! memory format (the byte counts live in the hardware model).
+
+use super::planes::DestPlanes;
+use bitvec::vec::BitVec;
+use postwarp_rtl::SampleImage;
+
+/// One A-buffer fragment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fragment {
+    /// Linear RGB.
+    pub colour: [f32; 3],
+    /// 1/Z at the pixel centre.
+    pub inv_z: f32,
+    /// Slopes of 1/Z per sample step.
+    pub slopes: [f32; 2],
+    /// Coverage mask over the pixel's samples (bit `j·ss + i`).
+    pub mask: u16,
+    /// True for a real surface, false for hole fill.
+    pub real: bool,
+    /// Source number (derived frames) or object id (reference frames).
+    pub key: u32,
+    /// Hole-fill weight (derived frames).
+    pub weight: f32,
+}
+
+/// Counters of one compression.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct AbufferStats {
+    /// Pixels by number of fragments needed before merging (index = count).
+    pub fragments_per_pixel: Vec<u64>,
+    /// Merges forced by the fragment limit.
+    pub forced_merges: u64,
+}
+
+impl AbufferStats {
+    fn record(&mut self, n: usize) {
+        if self.fragments_per_pixel.len() <= n {
+            self.fragments_per_pixel.resize(n + 1, 0);
+        }
+        self.fragments_per_pixel[n] += 1;
+    }
+
+    /// Add another set of counters.
+    pub fn add(&mut self, o: &AbufferStats) {
+        for (n, &c) in o.fragments_per_pixel.iter().enumerate() {
+            if c > 0 {
+                if self.fragments_per_pixel.len() <= n {
+                    self.fragments_per_pixel.resize(n + 1, 0);
+                }
+                self.fragments_per_pixel[n] += c;
+            }
+        }
+        self.forced_merges += o.forced_merges;
+    }
+}
+
+/// One sample as the A-buffer sees it.
+#[derive(Clone, Copy, Debug)]
+struct SampleView {
+    colour: [f32; 3],
+    inv_z: f32,
+    slopes: [f32; 2],
+    real: bool,
+    key: u32,
+    weight: f32,
+}
+
+/// Compression parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct AbufferParams {
+    /// Super-samples per pixel per axis.
+    pub ss: u32,
+    /// Fragment limit per pixel.
+    pub max_fragments: u32,
+    /// Z tolerance slope term.
+    pub slope_tol: f64,
+    /// Z tolerance relative term.
+    pub rel_tol: f64,
+}
+
+fn offset(ss: u32, i: u32) -> f32 {
+    i as f32 - (ss as f32 - 1.0) / 2.0
+}
+
+fn plane_at(f: &Fragment, ox: f32, oy: f32) -> f32 {
+    f.inv_z + f.slopes[0] * ox + f.slopes[1] * oy
+}
+
+/// Group one pixel's samples into fragments (rules 1–3).
+fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut AbufferStats) -> Vec<Fragment> {
+    let ss = p.ss;
+    let mut frags: Vec<(Fragment, [f64; 3], f64, u32)> = Vec::new(); // fragment, colour sum, weight sum, count
+    for (k, s) in samples.iter().enumerate() {
+        let Some(s) = s else { continue };
+        let (ox, oy) = (offset(ss, k as u32 % ss), offset(ss, k as u32 / ss));
+        let found = frags.iter().position(|(f, ..)| {
+            f.real == s.real && f.key == s.key && {
+                if !s.real {
+                    true
+                } else {
+                    let pred = plane_at(f, ox, oy) as f64;
+                    let tol = p.slope_tol * (f.slopes[0].abs() + f.slopes[1].abs()) as f64 + p.rel_tol * s.inv_z as f64;
+                    (pred - s.inv_z as f64).abs() <= tol
+                }
+            }
+        });
+        let idx = match found {
+            Some(i) => i,
+            None => {
+                let inv_z_c = if s.real { s.inv_z - s.slopes[0] * ox - s.slopes[1] * oy } else { 0.0 };
+                let f = Fragment {
+                    colour: [0.0; 3],
+                    inv_z: inv_z_c,
+                    slopes: if s.real { s.slopes } else { [0.0; 2] },
+                    mask: 0,
+                    real: s.real,
+                    key: s.key,
+                    weight: 0.0,
+                };
+                frags.push((f, [0.0; 3], 0.0, 0));
+                frags.len() - 1
+            }
+        };
+        let e = &mut frags[idx];
+        e.0.mask |= 1 << k;
+        for c in 0..3 {
+            e.1[c] += s.colour[c] as f64;
+        }
+        e.2 += s.weight as f64;
+        e.3 += 1;
+    }
+    stats.record(frags.len());
+    let mut out: Vec<(Fragment, [f64; 3], f64, u32)> = frags;
+    while out.len() > p.max_fragments as usize && out.len() > 1 {
+        let mut best = (u8::MAX, u8::MAX, f64::INFINITY, 0usize, 0usize);
+        for i in 0..out.len() {
+            for j in i + 1..out.len() {
+                let (a, b) = (&out[i].0, &out[j].0);
+                let key = ((a.real != b.real) as u8, (a.key != b.key) as u8, (a.inv_z as f64 - b.inv_z as f64).abs());
+                if (key.0, key.1) < (best.0, best.1) || ((key.0, key.1) == (best.0, best.1) && key.2 < best.2) {
+                    best = (key.0, key.1, key.2, i, j);
+                }
+            }
+        }
+        let (i, j) = (best.3, best.4);
+        let b = out.remove(j);
+        let a = &mut out[i];
+        let dominant_b = b.3 > a.3 || (b.3 == a.3 && b.0.inv_z > a.0.inv_z);
+        if dominant_b {
+            a.0.inv_z = b.0.inv_z;
+            a.0.slopes = b.0.slopes;
+            a.0.real = b.0.real;
+            a.0.key = b.0.key;
+        }
+        a.0.mask |= b.0.mask;
+        for c in 0..3 {
+            a.1[c] += b.1[c];
+        }
+        a.2 += b.2;
+        a.3 += b.3;
+        stats.forced_merges += 1;
+    }
+    out.into_iter()
+        .map(|(mut f, sum, wsum, n)| {
+            let n = n as f64;
+            f.colour = sum.map(|c| (c / n) as f32);
+            f.weight = (wsum / n) as f32;
+            f
+        })
+        .collect()
+}
+
+fn for_each_pixel(width: u32, height: u32, ss: u32, mut f: impl FnMut(u32, u32, &[usize])) {
+    let mut idx = Vec::with_capacity((ss * ss) as usize);
+    for py in 0..height / ss {
+        for px in 0..width / ss {
+            idx.clear();
+            for j in 0..ss {
+                for i in 0..ss {
+                    idx.push(((py * ss + j) * width + px * ss + i) as usize);
+                }
+            }
+            f(px, py, &idx);
+        }
+    }
+}
+
+/// Compress a reference frame's samples to fragments and expand them back
+/// (the round trip through memory). With `max_fragments == 0` the samples
+/// pass unchanged.
+pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut AbufferStats) -> SampleImage {
+    if p.max_fragments == 0 {
+        return img.clone();
+    }
+    let mut out = SampleImage::empty(img.width, img.height);
+    let mut views = Vec::with_capacity((p.ss * p.ss) as usize);
+    for_each_pixel(img.width, img.height, p.ss, |_, _, idx| {
+        views.clear();
+        views.extend(idx.iter().map(|&i| {
+            img.valid[i].then(|| SampleView {
+                colour: img.colour[i],
+                inv_z: 1.0 / img.z[i],
+                slopes: img.inv_z_slopes[i],
+                real: true,
+                key: img.object_id[i],
+                weight: 0.0,
+            })
+        }));
+        let frags = compress_pixel(&views, p, stats);
+        for f in &frags {
+            for (k, &i) in idx.iter().enumerate() {
+                if f.mask & (1 << k) != 0 {
+                    let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+                    out.colour[i] = f.colour;
+                    out.z[i] = 1.0 / plane_at(f, ox, oy);
+                    out.inv_z_slopes[i] = f.slopes;
+                    out.object_id[i] = f.key;
+                    out.valid.set(i, true);
+                }
+            }
+        }
+    });
+    // A plane extrapolated to a sample can reach 1/Z <= 0 on a grazing
+    // surface: such a sample keeps its own depth (it is the fragment's
+    // anchor side, so this only happens after a merge).
+    for i in out.valid.iter_ones().collect::<Vec<_>>() {
+        if !(out.z[i].is_finite() && out.z[i] > 0.0) {
+            out.z[i] = img.z[i];
+        }
+    }
+    out
+}
+
+/// Compress the derived frame's memory planes to fragments and expand them
+/// back. Cache-only planes are untouched (they are reset per warp).
+pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats) {
+    if p.max_fragments == 0 {
+        return;
+    }
+    let mut views = Vec::with_capacity((p.ss * p.ss) as usize);
+    let (w, h) = (d.width, d.height);
+    let mut updates: Vec<(usize, Option<Fragment>, f32, f32)> = Vec::new();
+    for_each_pixel(w, h, p.ss, |_, _, idx| {
+        views.clear();
+        views.extend(idx.iter().map(|&i| {
+            (d.real[i] || d.hole[i]).then(|| SampleView {
+                colour: d.colour[i],
+                inv_z: d.inv_z[i],
+                slopes: d.slopes[i],
+                real: d.real[i],
+                key: d.source[i] as u32,
+                weight: d.fill_weight[i],
+            })
+        }));
+        let frags = compress_pixel(&views, p, stats);
+        for (k, &i) in idx.iter().enumerate() {
+            let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+            let f = frags.iter().find(|f| f.mask & (1 << k) != 0).copied();
+            updates.push((i, f, ox, oy));
+        }
+    });
+    for (i, f, ox, oy) in updates {
+        match f {
+            None => {
+                d.real.set(i, false);
+                d.hole.set(i, false);
+            }
+            Some(f) => {
+                d.colour[i] = f.colour;
+                d.inv_z[i] = if f.real { plane_at(&f, ox, oy) } else { 0.0 };
+                d.slopes[i] = f.slopes;
+                d.source[i] = f.key as u8;
+                d.real.set(i, f.real);
+                d.hole.set(i, !f.real);
+                d.fill_weight[i] = f.weight;
+            }
+        }
+    }
+}
+
+/// The coverage masks of a compressed pixel partition its covered samples.
+pub fn masks_partition(frags: &[Fragment], covered: u16) -> bool {
+    let mut acc = 0u16;
+    for f in frags {
+        if acc & f.mask != 0 {
+            return false;
+        }
+        acc |= f.mask;
+    }
+    acc == covered
+}
+
+/// Compress one pixel of a reference image (for tests and tools).
+pub fn compress_reference_pixel(img: &SampleImage, px: u32, py: u32, p: &AbufferParams) -> Vec<Fragment> {
+    let mut views = Vec::new();
+    for j in 0..p.ss {
+        for i in 0..p.ss {
+            let k = img.index(px * p.ss + i, py * p.ss + j);
+            views.push(img.valid[k].then(|| SampleView {
+                colour: img.colour[k],
+                inv_z: 1.0 / img.z[k],
+                slopes: img.inv_z_slopes[k],
+                real: true,
+                key: img.object_id[k],
+                weight: 0.0,
+            }));
+        }
+    }
+    compress_pixel(&views, p, &mut AbufferStats::default())
+}
+
+/// Valid-sample mask of a reference pixel (bit `j·ss + i`).
+pub fn valid_mask(valid: &BitVec, width: u32, px: u32, py: u32, ss: u32) -> u16 {
+    let mut m = 0u16;
+    for j in 0..ss {
+        for i in 0..ss {
+            if valid[((py * ss + j) * width + px * ss + i) as usize] {
+                m |= 1 << (j * ss + i);
+            }
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(n: u32) -> AbufferParams {
+        AbufferParams { ss: 2, max_fragments: n, slope_tol: 2.0, rel_tol: 0.01 }
+    }
+
+    /// A 1x1-pixel reference whose 4 samples hold `surfaces` flat planar
+    /// surfaces (sample k belongs to surface k % surfaces).
+    fn pixel(surfaces: usize) -> SampleImage {
+        let mut s = SampleImage::empty(2, 2);
+        for k in 0..4 {
+            let f = k % surfaces;
+            let inv_z_c = 0.1 + 0.2 * f as f32;
+            let slopes = [0.001 * f as f32, -0.002];
+            let (ox, oy) = (offset(2, k as u32 % 2), offset(2, k as u32 / 2));
+            s.z[k] = 1.0 / (inv_z_c + slopes[0] * ox + slopes[1] * oy);
+            s.inv_z_slopes[k] = slopes;
+            s.colour[k] = [f as f32 / 4.0, 0.5, 0.25];
+            s.object_id[k] = 1;
+            s.valid.set(k, true);
+        }
+        s
+    }
+
+    #[test]
+    fn lossless_up_to_the_limit() {
+        for n in 1..=3 {
+            let img = pixel(n);
+            let mut st = AbufferStats::default();
+            // One round trip brings depths onto the fragments' planes; from
+            // then on the A-buffer is exact.
+            let once = round_trip_reference(&img, &params(3), &mut st);
+            let twice = round_trip_reference(&once, &params(3), &mut st);
+            assert_eq!(once, twice, "{n} surfaces");
+            assert_eq!(st.forced_merges, 0);
+            for k in 0..4 {
+                assert!((once.z[k] - img.z[k]).abs() <= 1e-5 * img.z[k], "{n}: {} vs {}", once.z[k], img.z[k]);
+                assert_eq!(once.colour[k], img.colour[k]);
+            }
+        }
+    }
+
+    #[test]
+    fn four_surfaces_merge_once_and_keep_the_pixel_mean() {
+        let img = pixel(4);
+        let mut st = AbufferStats::default();
+        let out = round_trip_reference(&img, &params(3), &mut st);
+        assert_eq!(st.forced_merges, 1);
+        assert_eq!(st.fragments_per_pixel, vec![0, 0, 0, 0, 1]);
+        let mean = |s: &SampleImage| (0..4).map(|k| s.colour[k][0]).sum::<f32>() / 4.0;
+        assert!((mean(&out) - mean(&img)).abs() < 1e-6);
+        let frags = compress_reference_pixel(&img, 0, 0, &params(3));
+        assert_eq!(frags.len(), 3);
+        assert!(masks_partition(&frags, 0b1111));
+    }
+
+    #[test]
+    fn invalid_samples_stay_invalid_and_masks_partition() {
+        let mut img = pixel(2);
+        img.valid.set(3, false);
+        let out = round_trip_reference(&img, &params(3), &mut AbufferStats::default());
+        assert!(!out.valid[3] && out.valid[0]);
+        let frags = compress_reference_pixel(&img, 0, 0, &params(3));
+        assert!(masks_partition(&frags, valid_mask(&img.valid, 2, 0, 0, 2)));
+    }
+}

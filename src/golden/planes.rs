@@ -1,0 +1,91 @@
+//! The derived frame's per-sample planes while a warp is in progress (TR98
+//! Appendix B.2), held as typed planes; flags are `bitvec` bit-planes.
+//!
+//! | # | plane | field here | kept |
+//! |---|---|---|---|
+//! | 1 | colour RGB | `colour` | memory |
+//! | 2 | derived 1/Z | `inv_z` | memory |
+//! | 3 | ∂(1/Z)/∂x, ∂(1/Z)/∂y | `slopes` | memory |
+//! | 4 | source (reference) number | `source` | memory |
+//! | 5 | colour is hole fill | `hole` | memory |
+//! | 6 | hole-fill colour | `fill_colour` | cache only (reset per warp) |
+//! | 7 | hole-fill colour valid | `fill_valid` | cache only |
+//! | 8 | hole-fill distance (0 = true surface) | `fill_distance` | cache only |
+//! | 9 | hole-fill weight | `fill_weight` | memory |
+//!
+//! A sample is *real* when `real` is set (a warped surface wrote it), a
+//! *hole-fill* sample when `hole` is set, and *empty* otherwise.
+
+use bitvec::vec::BitVec;
+
+/// Per-sample planes of the derived frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DestPlanes {
+    /// Width (samples).
+    pub width: u32,
+    /// Height (samples).
+    pub height: u32,
+    /// Plane 1: linear RGB.
+    pub colour: Vec<[f32; 3]>,
+    /// Plane 2: derived-camera 1/Z (1/scene unit).
+    pub inv_z: Vec<f32>,
+    /// Plane 3: slopes of 1/Z per derived sample step.
+    pub slopes: Vec<[f32; 2]>,
+    /// Plane 4: index (in the frame's warp list) of the reference that wrote it.
+    pub source: Vec<u8>,
+    /// Plane 5: colour comes from hole fill.
+    pub hole: BitVec,
+    /// A real surface sample (not a plane of the paper: "written, not hole").
+    pub real: BitVec,
+    /// Plane 6: hole-fill colour.
+    pub fill_colour: Vec<[f32; 3]>,
+    /// Plane 7: hole-fill colour valid.
+    pub fill_valid: BitVec,
+    /// Plane 8: hole-fill distance (samples, saturating).
+    pub fill_distance: Vec<u8>,
+    /// Plane 9: accumulated hole-fill weight (Σ 1/distance).
+    pub fill_weight: Vec<f32>,
+}
+
+impl DestPlanes {
+    /// An empty derived frame of `width x height` samples.
+    pub fn new(width: u32, height: u32) -> DestPlanes {
+        let n = width as usize * height as usize;
+        DestPlanes {
+            width,
+            height,
+            colour: vec![[0.0; 3]; n],
+            inv_z: vec![0.0; n],
+            slopes: vec![[0.0; 2]; n],
+            source: vec![0; n],
+            hole: BitVec::repeat(false, n),
+            real: BitVec::repeat(false, n),
+            fill_colour: vec![[0.0; 3]; n],
+            fill_valid: BitVec::repeat(false, n),
+            fill_distance: vec![0; n],
+            fill_weight: vec![0.0; n],
+        }
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.colour.len()
+    }
+
+    /// True if there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.colour.is_empty()
+    }
+
+    /// Reset the cache-only planes 6–8 for a new reference warp: real
+    /// samples are true surfaces (distance 0, fill colour = colour); others
+    /// have no fill colour yet.
+    pub fn begin_warp(&mut self) {
+        for i in 0..self.len() {
+            let real = self.real[i];
+            self.fill_valid.set(i, real);
+            self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
+            self.fill_distance[i] = 0;
+        }
+    }
+}
