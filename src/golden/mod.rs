@@ -8,4 +8,5 @@
 pub mod abuffer;
 pub mod config;
 pub mod planes;
+pub mod transform;
 pub mod traversal;

@@ -1,0 +1,238 @@
+//! Transform: warp each reference sample into the derived image
+//! (`warper-reference.md` §1, §3), in double precision.
+//!
+//! Per sample: the warped position (x', y'), derived 1/Z and `W`
+//! (`W <= 0`: behind the derived camera, culled); the expected spacing `E`
+//! of the discontinuity test; the derived-image slopes of 1/Z (plane 3);
+//! the exact edge-splat corners; the "better reference" bit-mask; the
+//! forward-edge neighbour.
+//!
+//! Rules:
+//! 1. `E = (|P1·x̄1| · f2) / (W · |P2·x̄2| · f1)` with `f` the geometric
+//!    mean focal length of each sample grid: the derived-image distance of
+//!    one reference sample step on a surface facing the reference centre
+//!    (`warper-reference.md` §3 for equal intrinsics).
+//! 2. Edge corner `(sx, sy)` ∈ {±1}²: warp `(x + sx/2, y + sy/2)` with
+//!    `1/Z + (sx·∂x + sy·∂y)/2`: exact for planar surfaces.
+//! 3. Derived slopes `∇2(1/Z2) = J⁻ᵀ·g` (J the warp's Jacobian, g the
+//!    reference-space gradient of 1/Z2); zero when J is singular.
+//! 4. Better mask: bit `j` is set iff reference `j` sees the surface less
+//!    obliquely: `|n·r̂_j| > |n·r̂_self|·(1 + margin)`, with `n` the normal
+//!    `(a, b, c0)` from the slopes and `r̂` the unit vector to a centre.
+//! 5. Forward-edge neighbour: the 8-neighbour nearest the direction `−D(p)`
+//!    (the inverse occlusion-compatible direction in the reference).
+//!
+//! Not modelled: fixed-point datapaths (FP64 here, stored as FP32).
+
+use glam::{DMat2, DVec2, DVec3};
+use postwarp_rtl::camera::Epipole;
+use postwarp_rtl::{Camera, WarpSetup};
+
+/// A warped sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Transformed {
+    /// Derived-image position (samples).
+    pub pos: DVec2,
+    /// Derived 1/Z.
+    pub inv_z: f64,
+    /// Expected spacing `E` (derived samples per reference sample step).
+    pub e: f64,
+}
+
+/// Everything the transform needs for one reference warp.
+#[derive(Clone, Debug)]
+pub struct WarpContext {
+    /// Warp parameters (sample grids).
+    pub setup: WarpSetup,
+    /// Reference camera (sample grid).
+    pub src: Camera,
+    /// Derived camera (sample grid).
+    pub dst: Camera,
+    /// Centres of every reference of the frame, in warp order.
+    pub centres: Vec<DVec3>,
+    /// Index of this reference in the warp order.
+    pub this: usize,
+    /// Margin of the better-reference test (fraction).
+    pub better_margin: f64,
+}
+
+fn focal(c: &Camera) -> f64 {
+    (c.intrinsics.fx * c.intrinsics.fy).sqrt()
+}
+
+fn ray_len(c: &Camera, x: f64, y: f64) -> f64 {
+    let k = &c.intrinsics;
+    DVec3::new((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0).length()
+}
+
+impl WarpContext {
+    /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if behind the derived
+    /// camera or not finite.
+    pub fn transform(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+        let w = self.setup.warp(x, y, inv_z);
+        if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
+            return None;
+        }
+        let e = ray_len(&self.src, x, y) * focal(&self.dst)
+            / (w.w * ray_len(&self.dst, w.position.x, w.position.y) * focal(&self.src));
+        Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+    }
+
+    /// Exact edge-splat corner `(sx, sy)` of a sample (rule 2).
+    pub fn edge_corner(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2], sx: f64, sy: f64) -> Option<DVec2> {
+        let iz = inv_z + 0.5 * (sx * slopes[0] as f64 + sy * slopes[1] as f64);
+        let w = self.setup.warp(x + 0.5 * sx, y + 0.5 * sy, iz);
+        (w.w > 0.0 && w.position.is_finite()).then_some(w.position)
+    }
+
+    /// Derived-image slopes of 1/Z (rule 3).
+    pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
+        let s = &self.setup;
+        let d = s.s1 * inv_z;
+        let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
+        let n = s.h * DVec3::new(x, y, 1.0) + s.e_hat * d;
+        let nx = s.h.x_axis + s.e_hat * dx;
+        let ny = s.h.y_axis + s.e_hat * dy;
+        let w = n.z;
+        let (xp, yp) = (n.x / w, n.y / w);
+        let j = DMat2::from_cols(
+            DVec2::new((nx.x - xp * nx.z) / w, (nx.y - yp * nx.z) / w),
+            DVec2::new((ny.x - xp * ny.z) / w, (ny.y - yp * ny.z) / w),
+        );
+        let g = DVec2::new((dx * w - d * nx.z) / (w * w), (dy * w - d * ny.z) / (w * w)) / s.s2;
+        let det = j.determinant();
+        if !det.is_finite() || det.abs() < 1e-12 {
+            return [0.0, 0.0];
+        }
+        // J maps reference steps to derived steps; ∇ref = Jᵀ·∇dst.
+        let v = j.transpose().inverse() * g;
+        if v.is_finite() { [v.x, v.y] } else { [0.0, 0.0] }
+    }
+
+    /// Better-reference bit-mask (rule 4).
+    pub fn better_mask(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> u32 {
+        let k = &self.src.intrinsics;
+        let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
+        let a = k.fx * slopes[0] as f64;
+        let b = k.fy * slopes[1] as f64;
+        let c0 = inv_z - a * xn - b * yn;
+        let r = self.src.pose.orientation;
+        let n = (r * DVec3::new(a, b, c0)).normalize_or_zero();
+        if n == DVec3::ZERO {
+            return 0;
+        }
+        let p = self.src.pose.position + r * DVec3::new(xn, yn, 1.0) / inv_z;
+        let cos = |c: DVec3| n.dot((c - p).normalize_or_zero()).abs();
+        let own = cos(self.centres[self.this]);
+        let mut mask = 0;
+        for (j, &c) in self.centres.iter().enumerate() {
+            if j != self.this && cos(c) > own * (1.0 + self.better_margin) {
+                mask |= 1 << j;
+            }
+        }
+        mask
+    }
+}
+
+/// The 8-neighbour offset nearest the direction `−D(p)` (rule 5); `None`
+/// where `D` vanishes (at the epipole or with coincident centres).
+pub fn backward_neighbour(epipole: &Epipole, x: f64, y: f64) -> Option<(i32, i32)> {
+    let d = -epipole.direction_at(DVec2::new(x, y));
+    if d.length_squared() == 0.0 || !d.is_finite() {
+        return None;
+    }
+    let oct = (d.y.atan2(d.x) / std::f64::consts::FRAC_PI_4).round() as i32;
+    const DIRS: [(i32, i32); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)];
+    Some(DIRS[oct.rem_euclid(8) as usize])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DQuat;
+    use postwarp_rtl::{Intrinsics, Pose};
+
+    fn cam(x: f64) -> Camera {
+        Camera {
+            intrinsics: Intrinsics { width: 64, height: 48, fx: 40.0, fy: 40.0, cx: 31.5, cy: 23.5 },
+            pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
+        }
+    }
+
+    fn ctx(dst_x: f64) -> WarpContext {
+        let (s, d) = (cam(0.0), cam(dst_x));
+        WarpContext {
+            setup: WarpSetup::new(&s, &d),
+            src: s,
+            dst: d,
+            centres: vec![s.pose.position, d.pose.position],
+            this: 0,
+            better_margin: 0.05,
+        }
+    }
+
+    #[test]
+    fn a_plane_translated_sideways_lands_where_the_equation_says() {
+        // Fronto-parallel plane at Z = 4, derived camera 0.1 to the right:
+        // every sample shifts left by f·B/Z = 40·0.1/4 = 1 sample.
+        let c = ctx(0.1);
+        let t = c.transform(10.0, 7.0, 0.25).unwrap();
+        assert!((t.pos - DVec2::new(9.0, 7.0)).length() < 1e-12);
+        assert!((t.inv_z - 0.25).abs() < 1e-15);
+        // E is defined for a surface facing the reference centre: ~1 off axis.
+        assert!((t.e - 1.0).abs() < 0.02, "pure translation keeps spacing: {}", t.e);
+        assert!((c.transform(31.5, 23.5, 0.25).unwrap().e - 1.0).abs() < 0.01);
+        let corner = c.edge_corner(10.0, 7.0, 0.25, [0.0, 0.0], 1.0, -1.0).unwrap();
+        assert!((corner - DVec2::new(9.5, 6.5)).length() < 1e-12);
+        assert_eq!(c.dest_slopes(10.0, 7.0, 0.25, [0.0, 0.0]), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn derived_slopes_match_finite_differences_on_a_tilted_plane() {
+        let c = ctx(0.2);
+        // 1/Z = 0.25 + 0.002·(x − 31.5) − 0.001·(y − 23.5) on the reference grid.
+        let iz = |x: f64, y: f64| 0.25 + 0.002 * (x - 31.5) - 0.001 * (y - 23.5);
+        let (x, y) = (20.0, 10.0);
+        let s = c.dest_slopes(x, y, iz(x, y), [0.002, -0.001]);
+        // Numerically: warp two nearby points and difference 1/Z2 over the derived step.
+        let t0 = c.transform(x, y, iz(x, y)).unwrap();
+        let tx = c.transform(x + 1e-4, y, iz(x + 1e-4, y)).unwrap();
+        let ty = c.transform(x, y + 1e-4, iz(x, y + 1e-4)).unwrap();
+        let j = DMat2::from_cols((tx.pos - t0.pos) / 1e-4, (ty.pos - t0.pos) / 1e-4);
+        let g = DVec2::new((tx.inv_z - t0.inv_z) / 1e-4, (ty.inv_z - t0.inv_z) / 1e-4);
+        let want = j.transpose().inverse() * g;
+        assert!((want.x - s[0]).abs() < 1e-6 && (want.y - s[1]).abs() < 1e-6, "{s:?} vs {want:?}");
+    }
+
+    #[test]
+    fn behind_the_derived_camera_is_culled() {
+        let mut c = ctx(0.0);
+        c.dst.pose.position = DVec3::new(0.0, 0.0, 10.0);
+        c.setup = WarpSetup::new(&c.src, &c.dst);
+        assert!(c.transform(31.5, 23.5, 0.25).is_none(), "a point at Z = 4 is behind a camera at z = 10");
+    }
+
+    #[test]
+    fn better_mask_prefers_the_reference_facing_the_surface() {
+        // A plane facing +x (normal along x): 1/Z varies with x. Reference 1
+        // sits far to the side, seeing it less obliquely.
+        let mut c = ctx(0.0);
+        c.centres = vec![DVec3::ZERO, DVec3::new(5.0, 0.0, 4.0)];
+        // Plane X = 1 in camera 0: 1/Z = xn → a = 1·..., slope = 1/fx per sample.
+        let (x, y) = (51.5, 23.5); // xn = 0.5 → Z = 2
+        let m = c.better_mask(x, y, 0.5, [1.0 / 40.0, 0.0]);
+        assert_eq!(m, 0b10);
+        // A centre far along the plane sees it edge-on: not better.
+        c.centres = vec![DVec3::ZERO, DVec3::new(0.5, 0.0, 20.0)];
+        assert_eq!(c.better_mask(x, y, 0.5, [1.0 / 40.0, 0.0]), 0);
+    }
+
+    #[test]
+    fn backward_neighbour_points_away_from_a_front_epipole() {
+        let e = Epipole { h: DVec3::new(10.0, 10.0, 1.0) };
+        // At (20, 10), D points toward e (−x): −D is +x.
+        assert_eq!(backward_neighbour(&e, 20.0, 10.0), Some((1, 0)));
+        assert_eq!(backward_neighbour(&e, 0.0, 0.0), Some((-1, -1)));
+        assert_eq!(backward_neighbour(&e, 10.0, 10.0), None);
+    }
+}
