@@ -11,6 +11,7 @@ pub mod cli;
 pub mod golden;
 pub mod import;
 pub mod io_util;
+pub mod metrics;
 pub mod path;
 pub mod picture;
 pub mod progress;

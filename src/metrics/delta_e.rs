@@ -1,0 +1,142 @@
+//! CIELAB colour difference (CIE76 ΔE*ab) and the share of pixels above 20.
+//!
+//! **Definition.** Each pixel goes linear RGB (sRGB primaries, D65 white) →
+//! CIE XYZ → CIELAB (D65 reference white), and ΔE = ‖Lab₁ − Lab₂‖₂ (CIE 1976,
+//! unitless; L\* is 0–100, white vs black is 100). The reported number is
+//! the **fraction** (0–1) of scored pixels with ΔE > [`DELTA_E_THRESHOLD`]
+//! = 20, the threshold Smit et al. use to mark sampling errors ("A
+//! shared-scene-graph image-warping architecture for VR: low latency versus
+//! image quality", Computers & Graphics 2010, §5).
+//!
+//! **Conventions.**
+//! * Like every metric here, ΔE sees what an 8-bit sRGB display shows: the
+//!   linear inputs are encoded with [`crate::picture::linear_to_srgb8`]
+//!   (clamped to [0, 1]) and the codes decoded with
+//!   [`crate::picture::srgb_to_linear`] before the matrix.
+//! * RGB → XYZ: the IEC 61966-2-1 matrix (Lindbloom's 7-digit form, Y = the
+//!   BT.709 luminance 0.2126729 R + 0.7151522 G + 0.0721750 B), Y of white = 1.
+//! * Reference white Xn, Yn, Zn = the matrix's row sums (0.95047, 1.0000001,
+//!   1.08883: D65), so RGB white is exactly L\* = 100, a\* = b\* = 0.
+//! * f(t) = t^(1/3) above (6/29)³, else t/(3·(6/29)²) + 4/29 (CIE 15:2004).
+//! * Only pixels whose mask bit is set are counted; none set gives NaN.
+
+use bitvec::vec::BitVec;
+
+use crate::picture::srgb_to_linear;
+
+/// ΔE above which a pixel counts as a large colour error (Smit et al.).
+pub const DELTA_E_THRESHOLD: f64 = 20.0;
+
+/// Linear sRGB (D65) → CIE XYZ, Y of white = 1.
+pub const RGB_TO_XYZ: [[f64; 3]; 3] =
+    [[0.4124564, 0.3575761, 0.1804375], [0.2126729, 0.7151522, 0.0721750], [0.0193339, 0.1191920, 0.9503041]];
+
+/// D65 reference white (the row sums of [`RGB_TO_XYZ`]).
+pub fn white() -> [f64; 3] {
+    RGB_TO_XYZ.map(|row| row[0] + row[1] + row[2])
+}
+
+/// Linear RGB (sRGB primaries) → XYZ.
+pub fn linear_to_xyz(rgb: [f64; 3]) -> [f64; 3] {
+    RGB_TO_XYZ.map(|row| row[0] * rgb[0] + row[1] * rgb[1] + row[2] * rgb[2])
+}
+
+/// XYZ → CIELAB [L*, a*, b*] relative to the D65 [`white`].
+pub fn xyz_to_lab(xyz: [f64; 3]) -> [f64; 3] {
+    const D: f64 = 6.0 / 29.0;
+    let f = |t: f64| if t > D * D * D { t.cbrt() } else { t / (3.0 * D * D) + 4.0 / 29.0 };
+    let w = white();
+    let (fx, fy, fz) = (f(xyz[0] / w[0]), f(xyz[1] / w[1]), f(xyz[2] / w[2]));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
+/// CIELAB of an 8-bit sRGB pixel.
+pub fn srgb8_to_lab(c: [u8; 3]) -> [f64; 3] {
+    xyz_to_lab(linear_to_xyz(c.map(|v| srgb_to_linear(v) as f64)))
+}
+
+/// CIE76 colour difference: Euclidean distance in CIELAB.
+pub fn delta_e76(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+/// Fraction of pixels whose `mask` bit is set with ΔE76 > `threshold`
+/// between `image` and `truth` (8-bit sRGB); NaN if no bit is set.
+///
+/// # Panics
+/// If the slices and the mask differ in length.
+pub fn delta_e_fraction(image: &[[u8; 3]], truth: &[[u8; 3]], mask: &BitVec, threshold: f64) -> f64 {
+    assert!(image.len() == truth.len() && image.len() == mask.len(), "delta_e_fraction: buffer lengths differ");
+    let (mut above, mut n) = (0u64, 0u64);
+    for i in mask.iter_ones() {
+        if image[i] != truth[i] && delta_e76(srgb8_to_lab(image[i]), srgb8_to_lab(truth[i])) > threshold {
+            above += 1;
+        }
+        n += 1;
+    }
+    if n == 0 { f64::NAN } else { above as f64 / n as f64 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn white_and_black() {
+        let w = srgb8_to_lab([255; 3]);
+        let k = srgb8_to_lab([0; 3]);
+        assert!((w[0] - 100.0).abs() < 1e-9 && w[1].abs() < 1e-9 && w[2].abs() < 1e-9, "{w:?}");
+        assert!(k.iter().all(|v| v.abs() < 1e-12), "{k:?}");
+        assert!((delta_e76(w, k) - 100.0).abs() < 1e-3);
+    }
+
+    #[test]
+    fn primaries_match_published_lab() {
+        // Standard sRGB (D65) values, e.g. Lindbloom's calculator.
+        let cases = [
+            ([255u8, 0, 0], [53.2408, 80.0925, 67.2032]),
+            ([0, 255, 0], [87.7347, -86.1827, 83.1793]),
+            ([0, 0, 255], [32.2970, 79.1875, -107.8602]),
+        ];
+        for (rgb, want) in cases {
+            let got = srgb8_to_lab(rgb);
+            for c in 0..3 {
+                assert!((got[c] - want[c]).abs() < 0.05, "{rgb:?}: {got:?} vs {want:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn mid_grey_lightness() {
+        // sRGB 119 is the classic L* ≈ 50 grey.
+        let l = srgb8_to_lab([119; 3])[0];
+        assert!((l - 50.0).abs() < 0.5, "{l}");
+    }
+
+    #[test]
+    fn fraction_counts_only_masked_pixels() {
+        let truth = vec![[128u8; 3]; 8];
+        let mut image = truth.clone();
+        image[0] = [255, 0, 0]; // far (ΔE > 20)
+        image[1] = [130, 128, 128]; // near (ΔE < 20)
+        image[5] = [0, 0, 0]; // far, but unknown
+        image[6] = [0, 0, 255]; // far, but unknown
+        let mut mask = BitVec::repeat(true, 8);
+        mask.set(5, false);
+        mask.set(6, false);
+        assert_eq!(delta_e_fraction(&image, &truth, &mask, DELTA_E_THRESHOLD), 1.0 / 6.0);
+        assert_eq!(delta_e_fraction(&image, &truth, &BitVec::repeat(true, 8), DELTA_E_THRESHOLD), 3.0 / 8.0);
+        assert!(delta_e_fraction(&image, &truth, &BitVec::repeat(false, 8), 20.0).is_nan());
+    }
+
+    #[test]
+    fn threshold_is_strict() {
+        // Two greys whose ΔE is exactly their L* difference.
+        let (a, b) = ([100u8; 3], [160u8; 3]);
+        let d = delta_e76(srgb8_to_lab(a), srgb8_to_lab(b));
+        assert!(d > 20.0 && d < 30.0, "{d}");
+        let m = BitVec::repeat(true, 1);
+        assert_eq!(delta_e_fraction(&[a], &[b], &m, d), 0.0);
+        assert_eq!(delta_e_fraction(&[a], &[b], &m, d - 1e-9), 1.0);
+    }
+}
