@@ -105,7 +105,8 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
-/// A loaded, renderable scene.
+/// A loaded, renderable scene (cheap to clone: meshes are shared).
+#[derive(Clone)]
 pub struct Scene {
     /// Short name (`name` key, else the file stem).
     pub name: String,
@@ -176,10 +177,7 @@ impl Scene {
         if !path.exists() && path.extension().is_none() && !name_or_path.contains(['/', '\\']) {
             return Err(SceneError::new(
                 name_or_path,
-                format!(
-                    "neither a built-in scene ({}) nor an existing scene file",
-                    builtin::SCENE_NAMES.join(", ")
-                ),
+                format!("neither a built-in scene ({}) nor an existing scene file", builtin::SCENE_NAMES.join(", ")),
             ));
         }
         Scene::from_file(path)
