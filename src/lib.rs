@@ -6,7 +6,6 @@
 //! (frame commands) → golden model | hardware units → images + stats →
 //! report. See `ARCHITECTURE.md`.
 
-#[cfg(any())] // PENDING
 pub mod cli;
 pub mod golden;
 pub mod import;
@@ -17,7 +16,6 @@ pub mod picture;
 pub mod progress;
 pub mod scene;
 pub mod trace;
-#[cfg(any())] // PENDING: enabled once scene lands
 pub mod tracegen;
 
 pub use postwarp_rtl as rtl;

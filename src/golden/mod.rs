@@ -6,7 +6,13 @@
 //! File names match the hardware units in `rtl-model/src/units/`.
 
 pub mod abuffer;
+pub mod composite;
 pub mod config;
+pub mod frame;
+pub mod hole_fill;
+pub mod kernel_setup;
 pub mod planes;
+pub mod raster;
+pub mod resolve;
 pub mod transform;
 pub mod traversal;

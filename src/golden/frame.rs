@@ -1,0 +1,264 @@
+//! One derived frame, end to end: for each reference in warp order, warp,
+//! reconstruct, rasterize and composite every sample, then hole-fill; hold
+//! the frame in A-buffer format between warps; resolve to pixels.
+//!
+//! Rules:
+//! 1. References pass through the A-buffer once ([`prepare_reference`]),
+//!    as the hardware reads them from memory in that format.
+//! 2. Samples are warped in the reference's eight-sheet order around its
+//!    epipole, reversed by default ([`WarpOrder`]); compositing is
+//!    Z-buffered, so the order matters only for exact ties.
+//! 3. Before each warp, the cache-only hole-fill planes are reset
+//!    (`DestPlanes::begin_warp`); after it, the hole fill runs in the
+//!    derived-epipole order; then the frame goes through the A-buffer.
+//! 4. Forward edges (TR98 App. B.1): a sample whose backward neighbour
+//!    (toward −D) is a deeper, separate surface writes that neighbour's
+//!    colour into the hole-fill plane instead of its own.
+
+use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
+use super::composite::{Candidate, Outcome, composite};
+use super::config::{GoldenConfig, WarpOrder};
+use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
+use super::kernel_setup::{GroupState, bounding_box, corners, group, same_surface};
+use super::planes::DestPlanes;
+use super::raster::rect;
+use super::resolve::resolve;
+use super::transform::{Transformed, WarpContext, backward_neighbour};
+use super::traversal;
+use bitvec::vec::BitVec;
+use glam::DVec2;
+use postwarp_rtl::{FrameCommands, SampleImage};
+use serde::Serialize;
+
+/// Largest kernel side tracked individually in the histogram; larger sizes
+/// land in the last bucket.
+pub const KERNEL_HIST_MAX: usize = 8;
+
+/// Counters of one derived frame (units: counts).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct GoldenStats {
+    /// Reference samples with a surface, over all warps.
+    pub reference_samples: u64,
+    /// Samples behind the derived camera (W <= 0), culled.
+    pub culled_samples: u64,
+    /// Kernels by (width, height) in sample centres: `kernel_sizes[w][h]`,
+    /// sizes above 8 in bucket 8.
+    pub kernel_sizes: Vec<Vec<u64>>,
+    /// Kernels wider or taller than the rasterizer limit.
+    pub kernels_over_limit: u64,
+    /// Kernel corners computed from the sample alone (edge, fold, border).
+    pub edge_corners: u64,
+    /// 2x2 groups failing the discontinuity test.
+    pub discontinuous_groups: u64,
+    /// 2x2 groups passing it but folded over.
+    pub folded_groups: u64,
+    /// Samples tagged as forward edges.
+    pub forward_edges: u64,
+    /// Candidate samples written over empty or hole-fill samples.
+    pub composite_filled: u64,
+    /// Candidate samples that won the depth test.
+    pub composite_nearer: u64,
+    /// Candidate samples that won the same-surface arbitration.
+    pub composite_better: u64,
+    /// Candidate samples that lost.
+    pub composite_lost: u64,
+    /// Hole samples filled, summed over passes.
+    pub hole_fill_filled: u64,
+    /// Hole samples no pass could reach, summed over passes.
+    pub hole_fill_unreached: u64,
+    /// Derived samples holding hole fill at the end.
+    pub hole_samples: u64,
+    /// Derived samples with neither surface nor fill at the end (black).
+    pub empty_samples: u64,
+    /// Derived pixels by A-buffer fragments needed (index = count), over
+    /// every store of the frame.
+    pub fragments_per_pixel: Vec<u64>,
+    /// A-buffer merges forced by the fragment limit (derived frame stores).
+    pub forced_merges: u64,
+}
+
+/// The golden model's output for one derived frame.
+#[derive(Clone, Debug)]
+pub struct GoldenFrame {
+    /// Final per-sample planes.
+    pub samples: DestPlanes,
+    /// Resolved display pixels (linear RGB).
+    pub pixels: Vec<[f32; 3]>,
+    /// Pixels whose samples all hold real surfaces.
+    pub covered: BitVec,
+    /// Counters.
+    pub stats: GoldenStats,
+}
+
+/// A reference frame after its trip through the A-buffer.
+#[derive(Clone, Debug)]
+pub struct PreparedReference {
+    /// Samples as expanded from the A-buffer.
+    pub samples: SampleImage,
+    /// A-buffer counters of the conversion.
+    pub abuffer: AbufferStats,
+}
+
+fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
+    AbufferParams { ss, max_fragments: cfg.abuffer_fragments, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol }
+}
+
+/// Rule 1.
+pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
+    let mut abuffer = AbufferStats::default();
+    let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
+    PreparedReference { samples, abuffer }
+}
+
+/// Produce derived frame `cmd` from its prepared references (`refs[j]` for
+/// `cmd.warps[j]`).
+pub fn warp_frame(cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig) -> GoldenFrame {
+    let ss = cmd.supersample;
+    let dst = cmd.derived_camera.sample_grid(ss);
+    let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
+    let mut st =
+        GoldenStats { kernel_sizes: vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1], ..Default::default() };
+    let mut ab = AbufferStats::default();
+    let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
+    for (j, (warp, img)) in cmd.warps.iter().zip(refs).enumerate() {
+        let ctx = WarpContext {
+            setup: warp.setup,
+            src: warp.reference_camera,
+            dst,
+            centres: centres.clone(),
+            this: j,
+            better_margin: cfg.better_margin,
+        };
+        d.begin_warp();
+        warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st);
+        if cfg.hole_fill {
+            let hf = hole_fill(
+                &mut d,
+                &warp.setup.epipole_derived,
+                &HoleFillParams {
+                    far_distance: cfg.hole_far_distance,
+                    far_offset: cfg.hole_far_offset,
+                    max_distance: cfg.hole_max_distance,
+                },
+            );
+            add_hole_stats(&mut st, &hf);
+        }
+        round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
+    }
+    st.fragments_per_pixel = ab.fragments_per_pixel;
+    st.forced_merges = ab.forced_merges;
+    st.hole_samples = d.hole.count_ones() as u64;
+    st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
+    let (pixels, covered) = resolve(&d, ss);
+    GoldenFrame { samples: d, pixels, covered, stats: st }
+}
+
+fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
+    st.hole_fill_filled += hf.filled;
+    st.hole_fill_unreached += hf.unreached;
+}
+
+/// Warp one reference into `d` (rules 2 and 4).
+fn warp_reference(
+    ctx: &WarpContext,
+    img: &SampleImage,
+    source: u8,
+    cfg: &GoldenConfig,
+    d: &mut DestPlanes,
+    st: &mut GoldenStats,
+) {
+    let (w, h) = (img.width, img.height);
+    let warped: Vec<Option<Transformed>> = (0..img.len())
+        .map(|i| {
+            if !img.valid[i] {
+                return None;
+            }
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            ctx.transform(x, y, 1.0 / img.z[i] as f64)
+        })
+        .collect();
+    let valid = img.valid.count_ones() as u64;
+    st.reference_samples += valid;
+    st.culled_samples += valid - warped.iter().filter(|t| t.is_some()).count() as u64;
+
+    let mut groups = Vec::with_capacity(((w.max(1) - 1) * (h.max(1) - 1)) as usize);
+    for gy in 0..h.saturating_sub(1) {
+        for gx in 0..w.saturating_sub(1) {
+            let g = group(&warped, w, gx, gy, cfg.threshold);
+            match g.0 {
+                GroupState::Discontinuous => st.discontinuous_groups += 1,
+                GroupState::Folded => st.folded_groups += 1,
+                _ => {}
+            }
+            groups.push(g);
+        }
+    }
+
+    let mut order = traversal::order(w, h, &ctx.setup.epipole_reference);
+    if cfg.warp_order == WarpOrder::Reverse {
+        order.reverse();
+    }
+    let size = (d.width, d.height);
+    for (x, y) in order {
+        let i = img.index(x, y);
+        let Some(t) = warped[i] else { continue };
+        let (c, edges) = corners(ctx, img, &t, &groups, x, y);
+        st.edge_corners += edges as u64;
+        let (x0, x1, y0, y1) = bounding_box(&c);
+        let r = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, size);
+        let (kw, kh) = (r.size.0 as usize, r.size.1 as usize);
+        st.kernel_sizes[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
+        st.kernels_over_limit += r.over_limit as u64;
+        if r.x.0 > r.x.1 || r.y.0 > r.y.1 {
+            continue;
+        }
+        let inv_z = 1.0 / img.z[i] as f64;
+        let slopes = ctx.dest_slopes(x as f64, y as f64, inv_z, img.inv_z_slopes[i]);
+        let fill_colour = match forward_edge_neighbour(ctx, img, &warped, &t, x, y, cfg.threshold) {
+            Some(k) => {
+                st.forward_edges += 1;
+                img.colour[k]
+            }
+            None => img.colour[i],
+        };
+        let cand = Candidate {
+            colour: img.colour[i],
+            inv_z: t.inv_z as f32,
+            slopes: [slopes[0] as f32, slopes[1] as f32],
+            source,
+            better: ctx.better_mask(x as f64, y as f64, inv_z, img.inv_z_slopes[i]),
+            fill_colour,
+        };
+        r.for_each(|sx, sy| {
+            let k = (sy * d.width + sx) as usize;
+            match composite(d, k, &cand, cfg.slope_tol, cfg.rel_tol) {
+                Outcome::Filled => st.composite_filled += 1,
+                Outcome::NearerWins => st.composite_nearer += 1,
+                Outcome::BetterWins => st.composite_better += 1,
+                Outcome::Lost => st.composite_lost += 1,
+            }
+        });
+    }
+}
+
+/// Rule 4: the index of the deeper, separate backward neighbour, if any.
+fn forward_edge_neighbour(
+    ctx: &WarpContext,
+    img: &SampleImage,
+    warped: &[Option<Transformed>],
+    t: &Transformed,
+    x: u32,
+    y: u32,
+    threshold: f64,
+) -> Option<usize> {
+    let (dx, dy) = backward_neighbour(&ctx.setup.epipole_reference, x as f64, y as f64)?;
+    let (nx, ny) = (x as i64 + dx as i64, y as i64 + dy as i64);
+    if nx < 0 || ny < 0 || nx >= img.width as i64 || ny >= img.height as i64 {
+        return None;
+    }
+    let k = img.index(nx as u32, ny as u32);
+    let tn = warped[k]?;
+    let i = img.index(x, y);
+    let offset = DVec2::new(dx as f64, dy as f64).length();
+    (img.z[k] > img.z[i] && !same_surface(t, &tn, offset, threshold)).then_some(k)
+}
