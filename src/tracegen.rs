@@ -59,7 +59,9 @@ pub struct TraceSpec {
     pub derived_rate_hz: f64,
     /// Prediction interval for reference viewpoints (seconds).
     pub prediction_s: f64,
-    /// Path time of the first derived frame (seconds).
+    /// Path time of the first derived frame (seconds). The default, 0.5 s,
+    /// lets the first reference be predicted from real motion (a reference
+    /// predicted from before the path starts sits at the start pose).
     pub start_s: f64,
     /// Render ground truth for every derived frame.
     pub truth: bool,
@@ -78,7 +80,7 @@ impl Default for TraceSpec {
             ref_rate_hz: 5.0,
             derived_rate_hz: 30.0,
             prediction_s: 0.4,
-            start_s: 0.0,
+            start_s: 0.5,
             truth: true,
         }
     }

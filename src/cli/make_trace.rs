@@ -47,8 +47,10 @@ pub struct Args {
     /// references exactly on the path.
     #[arg(long, default_value_t = 0.4)]
     pub prediction: f64,
-    /// Path time of the first derived frame (seconds).
-    #[arg(long, default_value_t = 0.0)]
+    /// Path time of the first derived frame (seconds); at least the
+    /// prediction interval, so the first reference is predicted from real
+    /// motion.
+    #[arg(long, default_value_t = 0.5)]
     pub start: f64,
     /// Do not render ground truth.
     #[arg(long)]
