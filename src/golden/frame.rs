@@ -10,14 +10,22 @@
 //!    Z-buffered, so the order matters only for exact ties.
 //! 3. Before each warp, the cache-only hole-fill planes are reset
 //!    (`DestPlanes::begin_warp`); after it, the hole fill runs in the
-//!    derived-epipole order; then the frame goes through the A-buffer.
+//!    derived-epipole order; then the frame goes through the A-buffer,
+//!    which does not keep the mesh/splat bit (cleared after the trip when
+//!    ss > 1; at ss = 1 a pixel is one sample and the trip is the identity).
 //! 4. Forward edges (TR98 App. B.1): a sample whose backward neighbour
 //!    (toward −D) is a deeper, separate surface writes that neighbour's
 //!    colour into the hole-fill plane instead of its own.
+//! 5. Reconstruction: [`Reconstruction::AaRect`] warps each reference with
+//!    the anti-aliased flat rectangles here; [`Reconstruction::General`]
+//!    with the triangle mesh and edge splats of
+//!    [`general::warp_reference_general`]. Hole fill, A-buffer and resolve
+//!    are the same for both.
 
 use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
-use super::composite::{Candidate, Outcome, composite};
-use super::config::{GoldenConfig, WarpOrder};
+use super::composite::{Candidate, Kind, Outcome, composite};
+use super::config::{GoldenConfig, Reconstruction, WarpOrder};
+use super::general;
 use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
 use super::kernel_setup::{GroupState, bounding_box, corners, group, same_surface};
 use super::planes::DestPlanes;
@@ -42,11 +50,14 @@ pub struct GoldenStats {
     /// Samples behind the derived camera (W <= 0), culled.
     pub culled_samples: u64,
     /// Kernels by (width, height) in sample centres: `kernel_sizes[w][h]`,
-    /// sizes above 8 in bucket 8.
+    /// sizes above 8 in bucket 8. General path: the edge splats' bounding
+    /// boxes (mesh triangles are not kernels).
     pub kernel_sizes: Vec<Vec<u64>>,
-    /// Kernels wider or taller than the rasterizer limit.
+    /// Kernels wider or taller than the rasterizer limit (general path:
+    /// edge splats).
     pub kernels_over_limit: u64,
-    /// Kernel corners computed from the sample alone (edge, fold, border).
+    /// Kernel corners computed from the sample alone (edge, fold, border);
+    /// general path: four per edge splat drawn.
     pub edge_corners: u64,
     /// 2x2 groups failing the discontinuity test.
     pub discontinuous_groups: u64,
@@ -58,10 +69,31 @@ pub struct GoldenStats {
     pub composite_filled: u64,
     /// Candidate samples that won the depth test.
     pub composite_nearer: u64,
-    /// Candidate samples that won the same-surface arbitration.
+    /// Candidate samples that won the same-surface arbitration (general
+    /// path: including mesh over splat).
     pub composite_better: u64,
-    /// Candidate samples that lost.
+    /// Candidate samples that lost (general path: including splats
+    /// rejected by the mesh/splat rule).
     pub composite_lost: u64,
+    /// General path: mesh triangles rasterized (count; two per 2x2 group of
+    /// reference samples that is one surface), over all warps.
+    pub mesh_triangles: u64,
+    /// General path: edge splats rasterized (count of reference samples
+    /// with a discontinuity, missing neighbour or unmeshed 2x2 group next
+    /// to them, not suppressed), over all warps.
+    pub edge_splats: u64,
+    /// General path: edge splats suppressed (count of edge samples on a
+    /// poorly sampled surface, footprint > 2 derived samples, that another
+    /// reference samples better), over all warps.
+    pub suppressed_splats: u64,
+    /// General path: splat candidate samples rejected because the stored
+    /// sample at the same depth came from the mesh (count of derived-sample
+    /// writes; a subset of `composite_lost`).
+    pub splats_rejected_by_mesh: u64,
+    /// General path: mesh candidate samples that replaced a stored splat at
+    /// the same depth (count of derived-sample writes; a subset of
+    /// `composite_better`).
+    pub mesh_over_splat: u64,
     /// Hole samples filled, summed over passes.
     pub hole_fill_filled: u64,
     /// Hole samples no pass could reach, summed over passes.
@@ -130,7 +162,10 @@ pub fn warp_frame(cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig
             better_margin: cfg.better_margin,
         };
         d.begin_warp();
-        warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st);
+        match cfg.reconstruction {
+            Reconstruction::AaRect => warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st),
+            Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
+        }
         if cfg.hole_fill {
             let hf = hole_fill(
                 &mut d,
@@ -144,6 +179,11 @@ pub fn warp_frame(cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig
             add_hole_stats(&mut st, &hf);
         }
         round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
+        if ss > 1 && cfg.abuffer_fragments > 0 {
+            // The A-buffer holds no mesh/splat bit (general path); at ss = 1
+            // each pixel is one fragment and the trip changes nothing.
+            d.forget_splats();
+        }
     }
     st.fragments_per_pixel = ab.fragments_per_pixel;
     st.forced_merges = ab.forced_merges;
@@ -228,21 +268,35 @@ fn warp_reference(
             source,
             better: ctx.better_mask(x as f64, y as f64, inv_z, img.inv_z_slopes[i]),
             fill_colour,
+            kind: Kind::Mesh,
         };
         r.for_each(|sx, sy| {
             let k = (sy * d.width + sx) as usize;
-            match composite(d, k, &cand, cfg.slope_tol, cfg.rel_tol) {
-                Outcome::Filled => st.composite_filled += 1,
-                Outcome::NearerWins => st.composite_nearer += 1,
-                Outcome::BetterWins => st.composite_better += 1,
-                Outcome::Lost => st.composite_lost += 1,
-            }
+            count_outcome(st, composite(d, k, &cand, cfg.slope_tol, cfg.rel_tol));
         });
     }
 }
 
+/// Add one composite outcome to the counters.
+pub(super) fn count_outcome(st: &mut GoldenStats, o: Outcome) {
+    match o {
+        Outcome::Filled => st.composite_filled += 1,
+        Outcome::NearerWins => st.composite_nearer += 1,
+        Outcome::BetterWins => st.composite_better += 1,
+        Outcome::Lost => st.composite_lost += 1,
+        Outcome::MeshOverSplat => {
+            st.composite_better += 1;
+            st.mesh_over_splat += 1;
+        }
+        Outcome::SplatRejected => {
+            st.composite_lost += 1;
+            st.splats_rejected_by_mesh += 1;
+        }
+    }
+}
+
 /// Rule 4: the index of the deeper, separate backward neighbour, if any.
-fn forward_edge_neighbour(
+pub(super) fn forward_edge_neighbour(
     ctx: &WarpContext,
     img: &SampleImage,
     warped: &[Option<Transformed>],

@@ -9,6 +9,7 @@ pub mod abuffer;
 pub mod composite;
 pub mod config;
 pub mod frame;
+pub mod general;
 pub mod hole_fill;
 pub mod kernel_setup;
 pub mod planes;

@@ -12,9 +12,17 @@
 //! | 7 | hole-fill colour valid | `fill_valid` | cache only |
 //! | 8 | hole-fill distance (0 = true surface) | `fill_distance` | cache only |
 //! | 9 | hole-fill weight | `fill_weight` | memory |
+//! | – | mesh/splat bit (TR98 §7.1, general path) | `splat` | memory, not in the A-buffer |
 //!
 //! A sample is *real* when `real` is set (a warped surface wrote it), a
 //! *hole-fill* sample when `hole` is set, and *empty* otherwise.
+//!
+//! The general reconstruction path (TR98 §7.1, `general.rs`) adds one
+//! memory bit-plane, `splat`: the stored real sample came from an edge
+//! splat (set) or from the triangle mesh (clear; the anti-aliased path's
+//! kernels count as mesh). It is not kept in the A-buffer: when the frame
+//! goes through the A-buffer between warps at ss > 1 the bit is forgotten
+//! ([`DestPlanes::forget_splats`]) and every stored sample counts as mesh.
 
 use bitvec::vec::BitVec;
 
@@ -45,6 +53,9 @@ pub struct DestPlanes {
     pub fill_distance: Vec<u8>,
     /// Plane 9: accumulated hole-fill weight (Σ 1/distance).
     pub fill_weight: Vec<f32>,
+    /// Mesh/splat bit (TR98 §7.1): the stored real sample came from an
+    /// edge splat. Clear for mesh samples, hole fill and empty samples.
+    pub splat: BitVec,
 }
 
 impl DestPlanes {
@@ -64,6 +75,7 @@ impl DestPlanes {
             fill_valid: BitVec::repeat(false, n),
             fill_distance: vec![0; n],
             fill_weight: vec![0.0; n],
+            splat: BitVec::repeat(false, n),
         }
     }
 
@@ -75,6 +87,12 @@ impl DestPlanes {
     /// True if there are no samples.
     pub fn is_empty(&self) -> bool {
         self.colour.is_empty()
+    }
+
+    /// Clear the mesh/splat plane: every stored sample counts as mesh (after
+    /// a trip through the A-buffer, which does not keep the bit).
+    pub fn forget_splats(&mut self) {
+        self.splat.fill(false);
     }
 
     /// Reset the cache-only planes 6–8 for a new reference warp: real

@@ -5,7 +5,7 @@
 //! (`W <= 0`: behind the derived camera, culled); the expected spacing `E`
 //! of the discontinuity test; the derived-image slopes of 1/Z (plane 3);
 //! the exact edge-splat corners; the "better reference" bit-mask; the
-//! forward-edge neighbour.
+//! forward-edge neighbour; the warp's Jacobian and footprint (general path).
 //!
 //! Rules:
 //! 1. `E = (|P1·x̄1| · f2) / (W · |P2·x̄2| · f1)` with `f` the geometric
@@ -21,6 +21,12 @@
 //!    `(a, b, c0)` from the slopes and `r̂` the unit vector to a centre.
 //! 5. Forward-edge neighbour: the 8-neighbour nearest the direction `−D(p)`
 //!    (the inverse occlusion-compatible direction in the reference).
+//! 6. Jacobian `J = ∂(x', y')/∂(x, y)` of the warp restricted to the
+//!    sample's surface plane (1/Z1 moving with the reference slopes), and
+//!    the *footprint* `|det J|`: the derived-image area (derived samples)
+//!    covered by one reference sample, i.e. the inverse of the density of
+//!    warped samples (TR98 §7.1 "poorly sampled": density below 1/2, that
+//!    is footprint above 2). Infinite when J is not finite.
 //!
 //! Not modelled: fixed-point datapaths (FP64 here, stored as FP32).
 
@@ -85,8 +91,9 @@ impl WarpContext {
         (w.w > 0.0 && w.position.is_finite()).then_some(w.position)
     }
 
-    /// Derived-image slopes of 1/Z (rule 3).
-    pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
+    /// The warp's Jacobian on the sample's surface plane (rule 6) and the
+    /// reference-space gradient `g` of the derived 1/Z (rule 3).
+    fn local(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> (DMat2, DVec2) {
         let s = &self.setup;
         let d = s.s1 * inv_z;
         let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
@@ -100,6 +107,26 @@ impl WarpContext {
             DVec2::new((ny.x - xp * ny.z) / w, (ny.y - yp * ny.z) / w),
         );
         let g = DVec2::new((dx * w - d * nx.z) / (w * w), (dy * w - d * ny.z) / (w * w)) / s.s2;
+        (j, g)
+    }
+
+    /// Jacobian `∂(x', y')/∂(x, y)` of the warp on the sample's surface
+    /// plane (rule 6): column `k` is the derived-image step of one reference
+    /// sample step along axis `k`.
+    pub fn jacobian(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> DMat2 {
+        self.local(x, y, inv_z, slopes).0
+    }
+
+    /// Footprint `|det J|` (rule 6): derived samples covered by one
+    /// reference sample; `f64::INFINITY` when J is not finite.
+    pub fn footprint(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> f64 {
+        let det = self.jacobian(x, y, inv_z, slopes).determinant().abs();
+        if det.is_finite() { det } else { f64::INFINITY }
+    }
+
+    /// Derived-image slopes of 1/Z (rule 3).
+    pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
+        let (j, g) = self.local(x, y, inv_z, slopes);
         let det = j.determinant();
         if !det.is_finite() || det.abs() < 1e-12 {
             return [0.0, 0.0];
@@ -202,6 +229,32 @@ mod tests {
         let g = DVec2::new((tx.inv_z - t0.inv_z) / 1e-4, (ty.inv_z - t0.inv_z) / 1e-4);
         let want = j.transpose().inverse() * g;
         assert!((want.x - s[0]).abs() < 1e-6 && (want.y - s[1]).abs() < 1e-6, "{s:?} vs {want:?}");
+    }
+
+    #[test]
+    fn footprint_is_the_area_ratio_of_warped_samples() {
+        // Pure sideways translation of a fronto-parallel plane: area kept.
+        let c = ctx(0.1);
+        assert!((c.footprint(10.0, 7.0, 0.25, [0.0, 0.0]) - 1.0).abs() < 1e-12);
+        // Moving toward a fronto-parallel plane at Z = 4 by 2: magnification
+        // 4/2 = 2 per axis, area 4.
+        let mut z = ctx(0.0);
+        z.dst.pose.position = DVec3::new(0.0, 0.0, 2.0);
+        z.setup = WarpSetup::new(&z.src, &z.dst);
+        assert!((z.footprint(31.5, 23.5, 0.25, [0.0, 0.0]) - 4.0).abs() < 1e-9);
+        // A tilted plane: |det J| equals the area of the warped unit square
+        // measured by finite differences.
+        let c = ctx(0.3);
+        let iz = |x: f64, y: f64| 0.25 + 0.004 * (x - 31.5) - 0.002 * (y - 23.5);
+        let (x, y) = (20.0, 10.0);
+        let t0 = c.transform(x, y, iz(x, y)).unwrap().pos;
+        let tx = c.transform(x + 1e-4, y, iz(x + 1e-4, y)).unwrap().pos;
+        let ty = c.transform(x, y + 1e-4, iz(x, y + 1e-4)).unwrap().pos;
+        let j = DMat2::from_cols((tx - t0) / 1e-4, (ty - t0) / 1e-4);
+        let f = c.footprint(x, y, iz(x, y), [0.004, -0.002]);
+        assert!((f - j.determinant().abs()).abs() < 1e-5, "{f} vs {}", j.determinant());
+        let jj = c.jacobian(x, y, iz(x, y), [0.004, -0.002]);
+        assert!((jj.x_axis - j.x_axis).length() < 1e-5 && (jj.y_axis - j.y_axis).length() < 1e-5);
     }
 
     #[test]
