@@ -1,0 +1,90 @@
+//! Speed of the golden model against the plain forward splat, on one core.
+//!
+//! Input, built once in memory as `postwarp make-trace --scene room --width
+//! 640 --height 480 --supersample 2` would (default spec otherwise: 88x68°
+//! references, spline path, prediction 0.4 s, start 0.5 s): derived frame 3
+//! and its references 0 and 1 (2140x1496 samples each), colour rounded to
+//! half as the trace stores it, both passed through the A-buffer
+//! (`prepare_reference`). Both methods warp the same prepared references.
+//!
+//! Throughput is in reference samples per second: the valid samples of both
+//! references per derived frame.
+//!
+//! Run: `cargo bench --bench golden`.
+
+use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use postwarp::golden::config::GoldenConfig;
+use postwarp::golden::frame::{prepare_reference, warp_frame};
+use postwarp::methods::forward_splat;
+use postwarp::path::predict::predict_pose;
+use postwarp::scene::Scene;
+use postwarp::tracegen::{TraceSpec, scene_path};
+use postwarp_rtl::{Camera, FrameCommands, SampleImage};
+use std::hint::black_box;
+use std::time::Duration;
+
+/// Derived frame benchmarked (its references are 0 and 1).
+const FRAME: usize = 3;
+
+/// One derived frame's commands and its prepared references.
+struct Input {
+    cmd: FrameCommands,
+    refs: Vec<SampleImage>,
+}
+
+/// Rebuild what `make-trace` writes for derived frame [`FRAME`] of `room`.
+fn input() -> Input {
+    let spec = TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() };
+    let ss = spec.supersample;
+    let scene = Scene::builtin("room").expect("built-in scene `room`");
+    let path = scene_path(&scene, spec.path).expect("room's spline path");
+    let ref_k = spec.reference_intrinsics().expect("reference intrinsics");
+    let prev = spec.previous_reference(FRAME);
+    let cams: Vec<(usize, Camera)> = [prev, prev + 1]
+        .into_iter()
+        .map(|j| {
+            let t = j as f64 / spec.ref_rate_hz;
+            (j, Camera { intrinsics: ref_k, pose: predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s) })
+        })
+        .collect();
+    let t = FRAME as f64 / spec.derived_rate_hz;
+    let derived = Camera { intrinsics: spec.display_intrinsics(), pose: path.pose(spec.start_s + t) };
+    let cmd = FrameCommands::new(FRAME, derived, ss, &cams);
+    let cfg = GoldenConfig::default();
+    let refs = cams
+        .iter()
+        .map(|(_, cam)| {
+            let mut img = scene.render(cam, ss);
+            // The trace stores colour as half.
+            for c in img.colour.iter_mut().flatten() {
+                *c = exr::prelude::f16::from_f32(*c).to_f32();
+            }
+            prepare_reference(&img, ss, &cfg).samples
+        })
+        .collect();
+    Input { cmd, refs }
+}
+
+fn bench(c: &mut Criterion) {
+    let input = input();
+    let refs: Vec<&SampleImage> = input.refs.iter().collect();
+    let valid: u64 = refs.iter().map(|r| r.valid.count_ones() as u64).sum();
+    let cfg = GoldenConfig::default();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one-thread pool");
+
+    let mut g = c.benchmark_group("room_640x480_ss2_frame3");
+    g.throughput(Throughput::Elements(valid));
+    g.sample_size(10);
+    g.sampling_mode(SamplingMode::Flat);
+    g.warm_up_time(Duration::from_secs(1));
+    // Flat sampling with a target below 10 iterations' time: one iteration
+    // per sample, so the whole bench stays near 40 s on a 2-core machine.
+    g.measurement_time(Duration::from_secs(20));
+    g.bench_function("golden", |b| pool.install(|| b.iter(|| black_box(warp_frame(&input.cmd, &refs, &cfg)))));
+    g.measurement_time(Duration::from_secs(5));
+    g.bench_function("forward_splat", |b| pool.install(|| b.iter(|| black_box(forward_splat(&input.cmd, &refs)))));
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

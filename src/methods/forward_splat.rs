@@ -1,0 +1,289 @@
+//! The plain forward splat: the baseline every better warper is measured
+//! against (the "plain per-sample forward splat with depth test" of the
+//! anchors, and issue 6's baseline for quality and speed).
+//!
+//! Job: make a derived frame from the same [`FrameCommands`] and reference
+//! samples as the golden model, in the simplest way that is still a 3D warp.
+//!
+//! Rules:
+//! 1. Every valid reference sample is warped with its [`ReferenceWarp`]'s
+//!    [`WarpSetup::warp`] (sample grids of
+//!    both cameras); a sample behind the derived camera (`W <= 0`) is culled.
+//! 2. A warped sample writes only the derived sample whose centre is nearest
+//!    (its position rounded to integers); one that lands off the image is
+//!    dropped.
+//! 3. Depth test: the larger derived 1/Z wins; on equal 1/Z the sample
+//!    already there stays.
+//! 4. References are warped in warp order into one buffer; each reference in
+//!    raster order (the order matters only for exact ties).
+//! 5. Resolve: each pixel is the mean of its `ss x ss` samples, empty
+//!    samples counting as black; a pixel is *covered* when every one of its
+//!    samples was written.
+//!
+//! Not modelled, on purpose: reconstruction (no kernels: a magnified surface
+//! leaves pinholes between its samples, a minified one keeps whichever
+//! sample came last), hole fill, the A-buffer between warps, the
+//! occlusion-compatible traversal, same-surface arbitration between
+//! references, slopes and Z tolerances, fixed point and cycles.
+//!
+//! [`ReferenceWarp`]: postwarp_rtl::ReferenceWarp
+
+use bitvec::vec::BitVec;
+use postwarp_rtl::{FrameCommands, SampleImage, WarpSetup};
+use serde::Serialize;
+
+/// The derived frame's per-sample planes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SplatPlanes {
+    /// Width (samples).
+    pub width: u32,
+    /// Height (samples).
+    pub height: u32,
+    /// Linear RGB of the winning sample (black where empty).
+    pub colour: Vec<[f32; 3]>,
+    /// Derived-camera 1/Z of the winning sample (1/scene unit; 0 where empty).
+    pub inv_z: Vec<f32>,
+    /// Set where some reference sample was written.
+    pub valid: BitVec,
+}
+
+impl SplatPlanes {
+    /// An empty derived frame of `width x height` samples.
+    pub fn new(width: u32, height: u32) -> SplatPlanes {
+        let n = width as usize * height as usize;
+        SplatPlanes { width, height, colour: vec![[0.0; 3]; n], inv_z: vec![0.0; n], valid: BitVec::repeat(false, n) }
+    }
+}
+
+/// Counters of one derived frame (units: reference samples, over all warps;
+/// the last five add up to `reference_samples`).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ForwardSplatStats {
+    /// Reference samples with a surface.
+    pub reference_samples: u64,
+    /// Samples behind the derived camera (`W <= 0`).
+    pub culled_samples: u64,
+    /// Samples whose nearest derived sample is off the image.
+    pub off_image: u64,
+    /// Samples written into an empty derived sample.
+    pub filled: u64,
+    /// Samples that won the depth test over an earlier one.
+    pub nearer: u64,
+    /// Samples that lost the depth test.
+    pub lost: u64,
+}
+
+/// The forward splat's output for one derived frame.
+#[derive(Clone, Debug)]
+pub struct ForwardSplatFrame {
+    /// Final per-sample planes.
+    pub samples: SplatPlanes,
+    /// Resolved display pixels (linear RGB).
+    pub pixels: Vec<[f32; 3]>,
+    /// Pixels whose samples were all written.
+    pub covered: BitVec,
+    /// Counters.
+    pub stats: ForwardSplatStats,
+}
+
+/// Produce derived frame `cmd` from its references (`refs[j]` for
+/// `cmd.warps[j]`, each on its camera's sample grid).
+///
+/// # Panics
+/// If `refs` and `cmd.warps` differ in length or a reference's size is not
+/// its camera's sample grid.
+pub fn forward_splat(cmd: &FrameCommands, refs: &[&SampleImage]) -> ForwardSplatFrame {
+    assert_eq!(refs.len(), cmd.warps.len(), "one reference image per warp");
+    let ss = cmd.supersample;
+    let dst = cmd.derived_camera.sample_grid(ss).intrinsics;
+    let mut d = SplatPlanes::new(dst.width, dst.height);
+    let mut st = ForwardSplatStats::default();
+    for (warp, img) in cmd.warps.iter().zip(refs) {
+        let src = &warp.reference_camera.intrinsics;
+        assert_eq!((img.width, img.height), (src.width, src.height), "reference image size");
+        splat_reference(&warp.setup, img, &mut d, &mut st);
+    }
+    let (pixels, covered) = resolve(&d, ss);
+    ForwardSplatFrame { samples: d, pixels, covered, stats: st }
+}
+
+/// Rules 1-4 for one reference.
+fn splat_reference(setup: &WarpSetup, img: &SampleImage, d: &mut SplatPlanes, st: &mut ForwardSplatStats) {
+    let w = img.width as usize;
+    let (dw, dh) = (d.width as f64, d.height as f64);
+    for i in img.valid.iter_ones() {
+        st.reference_samples += 1;
+        let (x, y) = ((i % w) as f64, (i / w) as f64);
+        let t = setup.warp(x, y, 1.0 / img.z[i] as f64);
+        if t.w <= 0.0 {
+            st.culled_samples += 1;
+            continue;
+        }
+        let (rx, ry) = (t.position.x.round(), t.position.y.round());
+        // Also rejects NaN positions.
+        if !(rx >= 0.0 && ry >= 0.0 && rx < dw && ry < dh) {
+            st.off_image += 1;
+            continue;
+        }
+        let k = ry as usize * d.width as usize + rx as usize;
+        let inv_z = t.inv_z as f32;
+        if !d.valid[k] {
+            d.valid.set(k, true);
+            st.filled += 1;
+        } else if inv_z > d.inv_z[k] {
+            st.nearer += 1;
+        } else {
+            st.lost += 1;
+            continue;
+        }
+        d.inv_z[k] = inv_z;
+        d.colour[k] = img.colour[i];
+    }
+}
+
+/// Rule 5.
+fn resolve(d: &SplatPlanes, ss: u32) -> (Vec<[f32; 3]>, BitVec) {
+    let (pw, ph) = (d.width / ss.max(1), d.height / ss.max(1));
+    let n = (ss * ss) as f64;
+    let mut pixels = Vec::with_capacity((pw * ph) as usize);
+    let mut covered = BitVec::with_capacity((pw * ph) as usize);
+    for py in 0..ph {
+        for px in 0..pw {
+            let mut acc = [0.0f64; 3];
+            let mut all = true;
+            for j in 0..ss {
+                for i in 0..ss {
+                    let k = ((py * ss + j) * d.width + px * ss + i) as usize;
+                    all &= d.valid[k];
+                    for (a, v) in acc.iter_mut().zip(d.colour[k]) {
+                        *a += v as f64;
+                    }
+                }
+            }
+            pixels.push(acc.map(|a| (a / n) as f32));
+            covered.push(all);
+        }
+    }
+    (pixels, covered)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{DQuat, DVec3};
+    use postwarp_rtl::{Camera, Intrinsics, Pose};
+
+    /// A `w x h`-pixel camera at `x` on the x axis looking down +z.
+    fn cam(w: u32, h: u32, x: f64) -> Camera {
+        Camera {
+            intrinsics: Intrinsics {
+                width: w,
+                height: h,
+                fx: 50.0,
+                fy: 50.0,
+                cx: 0.5 * (w as f64 - 1.0),
+                cy: 0.5 * (h as f64 - 1.0),
+            },
+            pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
+        }
+    }
+
+    /// A sample image where `depth(x, y)` gives Z (or `None` for no surface)
+    /// and the colour encodes the position.
+    fn image(w: u32, h: u32, depth: impl Fn(u32, u32) -> Option<f32>) -> SampleImage {
+        let mut img = SampleImage::empty(w, h);
+        for y in 0..h {
+            for x in 0..w {
+                let i = img.index(x, y);
+                img.colour[i] = [x as f32 / w as f32, y as f32 / h as f32, 0.5];
+                if let Some(z) = depth(x, y) {
+                    img.z[i] = z;
+                    img.valid.set(i, true);
+                }
+            }
+        }
+        img
+    }
+
+    #[test]
+    fn identity_warp_reproduces_the_reference() {
+        let (c, ss) = (cam(12, 8, 0.0), 2);
+        let img = image(24, 16, |x, y| ((x * 7 + y * 3) % 11 != 0).then_some(1.0 + ((x * 5 + y) % 9) as f32));
+        let cmd = FrameCommands::new(0, c, ss, &[(0, c)]);
+        let f = forward_splat(&cmd, &[&img]);
+        assert_eq!(f.samples.valid, img.valid);
+        for i in img.valid.iter_ones() {
+            assert_eq!(f.samples.colour[i], img.colour[i], "sample {i}");
+            assert!((f.samples.inv_z[i] - 1.0 / img.z[i]).abs() < 1e-6, "sample {i}");
+        }
+        let n = img.valid.count_ones() as u64;
+        assert_eq!(f.stats, ForwardSplatStats { reference_samples: n, filled: n, ..Default::default() });
+        // Pixel (0, 0) averages samples 0, 1, 24, 25 (sample 0 is empty: black).
+        assert!(!img.valid[0] && !f.covered[0]);
+        for (c, got) in f.pixels[0].iter().enumerate() {
+            let want = [1, 24, 25].iter().map(|&k| img.colour[k][c]).sum::<f32>() / 4.0;
+            assert!((got - want).abs() < 1e-6, "channel {c}: {got} vs {want}");
+        }
+        assert!(f.covered[1]);
+    }
+
+    #[test]
+    fn translated_plane_lands_shifted() {
+        // Plane Z = 5; derived camera 0.2 to the right. On the 2x2 sample grid
+        // fx = 100, so the image moves by −100·0.2/5 = −4 samples.
+        let ss = 2;
+        let img = image(40, 20, |_, _| Some(5.0));
+        let cmd = FrameCommands::new(0, cam(20, 10, 0.2), ss, &[(0, cam(20, 10, 0.0))]);
+        let f = forward_splat(&cmd, &[&img]);
+        for y in 0..20u32 {
+            for x in 0..40u32 {
+                let k = img.index(x, y);
+                if x + 4 < 40 {
+                    assert!(f.samples.valid[k], "({x}, {y})");
+                    assert_eq!(f.samples.colour[k], img.colour[img.index(x + 4, y)], "({x}, {y})");
+                    assert!((f.samples.inv_z[k] - 0.2).abs() < 1e-6);
+                } else {
+                    assert!(!f.samples.valid[k], "({x}, {y})");
+                }
+            }
+        }
+        assert_eq!(f.stats.off_image, 4 * 20);
+        // The two rightmost pixel columns are empty, the rest covered.
+        for p in 0..200 {
+            assert_eq!(f.covered[p], p % 20 < 18, "pixel {p}");
+        }
+    }
+
+    #[test]
+    fn nearer_sample_wins() {
+        // Within one reference: background at Z = 5 moves +1 sample, a strip
+        // at Z = 1 (x 5..7) moves +5 onto x 10..12; the background of x 9..11
+        // lands there too, after the strip in raster order, and loses.
+        let img = image(20, 4, |x, _| Some(if (5..7).contains(&x) { 1.0 } else { 5.0 }));
+        let cmd = FrameCommands::new(0, cam(20, 4, -0.1), 1, &[(0, cam(20, 4, 0.0))]);
+        let f = forward_splat(&cmd, &[&img]);
+        for y in 0..4 {
+            for x in 10..12 {
+                let k = img.index(x, y);
+                assert_eq!(f.samples.colour[k], img.colour[img.index(x - 5, y)], "({x}, {y})");
+                assert!((f.samples.inv_z[k] - 1.0).abs() < 1e-6);
+            }
+        }
+        assert_eq!(f.stats.lost, 2 * 4);
+
+        // Across references, in either warp order: the near one wins.
+        let c = cam(8, 6, 0.0);
+        let far = image(8, 6, |_, _| Some(10.0));
+        let mut near = image(8, 6, |x, _| (x < 4).then_some(2.0));
+        near.colour.iter_mut().for_each(|c| *c = [1.0, 0.0, 0.0]);
+        let cmd = FrameCommands::new(0, c, 1, &[(0, c), (1, c)]);
+        for (refs, nearer, lost) in [([&far, &near], 24, 0), ([&near, &far], 0, 24)] {
+            let f = forward_splat(&cmd, &refs);
+            for k in 0..48 {
+                let want = if k % 8 < 4 { [1.0, 0.0, 0.0] } else { far.colour[k] };
+                assert_eq!(f.samples.colour[k], want, "sample {k}");
+            }
+            assert_eq!((f.stats.nearer, f.stats.lost), (nearer, lost));
+        }
+    }
+}
