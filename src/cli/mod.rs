@@ -1,6 +1,7 @@
 //! The `postwarp` command line. One file per subcommand; each parses its
 //! flags with clap and calls into the library.
 
+mod golden;
 mod import;
 mod info;
 mod make_trace;
@@ -30,6 +31,10 @@ enum Command {
     /// calib.txt) into a trace: left view = reference, right camera = derived
     /// frame, right photo = ground truth.
     ImportMiddlebury(import::Args),
+    /// Run the golden model (Mark's warper on the CPU) on a trace: derived
+    /// frames as PNG and EXR, hole masks, difference heat-maps, report.json
+    /// and a table of quality against ground truth.
+    Golden(golden::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -50,5 +55,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Info(a) => info::run(a),
         Command::MakeTrace(a) => make_trace::run(a),
         Command::ImportMiddlebury(a) => import::run(a),
+        Command::Golden(a) => golden::run(a),
     }
 }

@@ -1,0 +1,102 @@
+//! `postwarp golden`: the golden model on a trace.
+
+use crate::golden::config::{GoldenConfig, OverLimit, Reconstruction, WarpOrder};
+use crate::run::golden::run_golden;
+use crate::trace::Trace;
+use anyhow::Context;
+use std::path::PathBuf;
+
+/// Flags of `postwarp golden`. Knob flags override `--config`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Trace directory (or its `postwarp.trace` manifest).
+    pub trace: PathBuf,
+    /// Output directory: frame-NNNN.png/.exr, holes-NNNN.png, diff-NNNN.png, report.json.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Golden-model knobs as TOML (keys as in docs/golden.md).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Discontinuity threshold, as a ratio of the expected spacing (TR98: 1.4 to 2.3).
+    #[arg(long)]
+    pub threshold: Option<f64>,
+    /// A-buffer fragments per pixel between warps (0 = no A-buffer).
+    #[arg(long)]
+    pub abuffer_fragments: Option<u32>,
+    /// Disable the epipolar hole fill.
+    #[arg(long)]
+    pub no_hole_fill: bool,
+    /// Kernels larger than 4x4: clip (hardware) or allow.
+    #[arg(long, value_enum)]
+    pub over_limit: Option<OverLimit>,
+    /// Warp traversal order.
+    #[arg(long, value_enum)]
+    pub warp_order: Option<WarpOrder>,
+    /// Reconstruction: anti-aliased rectangles or mesh + edge splats.
+    #[arg(long, value_enum)]
+    pub reconstruction: Option<Reconstruction>,
+}
+
+/// Build the configuration from `--config` and the knob flags.
+pub fn config(a: &Args) -> anyhow::Result<GoldenConfig> {
+    let mut cfg = match &a.config {
+        None => GoldenConfig::default(),
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?
+        }
+    };
+    if let Some(v) = a.threshold {
+        cfg.threshold = v;
+    }
+    if let Some(v) = a.abuffer_fragments {
+        cfg.abuffer_fragments = v;
+    }
+    if a.no_hole_fill {
+        cfg.hole_fill = false;
+    }
+    if let Some(v) = a.over_limit {
+        cfg.over_limit = v;
+    }
+    if let Some(v) = a.warp_order {
+        cfg.warp_order = v;
+    }
+    if let Some(v) = a.reconstruction {
+        cfg.reconstruction = v;
+    }
+    cfg.validate().map_err(|e| anyhow::anyhow!("golden configuration: {e}"))?;
+    Ok(cfg)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let cfg = config(&a)?;
+    let trace = Trace::open(&a.trace)?;
+    let r = run_golden(&trace, &cfg, &a.out)?;
+    println!(
+        "{}: {} frames, method {}",
+        trace.manifest.display(),
+        trace.derived.len(),
+        r.report["method"].as_str().unwrap_or("?")
+    );
+    let slopes = &r.report["references"]["slopes"];
+    if slopes.as_array().is_some_and(|a| a.iter().any(|s| s == "finite-difference")) {
+        println!("slopes: computed from depth by finite differences for some reference frames ({slopes})");
+    }
+    print!("{}", r.table);
+    let m = &r.report["mean"];
+    println!(
+        "kernels over {0}x{0}: {1}, forced A-buffer merges: {2}, hole samples: {3}, empty samples: {4} (means per frame)",
+        cfg.kernel_limit, m["kernels_over_limit"], m["forced_merges"], m["hole_samples"], m["empty_samples"]
+    );
+    println!("kernel sizes (rows: width 0..8+, columns: height 0..8+), summed over frames:");
+    if let Some(rows) = m["kernel_sizes"].as_array() {
+        for (w, row) in rows.iter().enumerate() {
+            let cells: Vec<String> =
+                row.as_array().into_iter().flatten().map(|v| format!("{:>9}", v.as_f64().unwrap_or(0.0))).collect();
+            println!("  w={w}: {}", cells.join(""));
+        }
+    }
+    println!("fragments per pixel (0, 1, 2, ...), summed over frames: {}", m["fragments_per_pixel"]);
+    println!("wrote {}", a.out.join("report.json").display());
+    Ok(())
+}

@@ -1,0 +1,156 @@
+//! `postwarp golden` end to end on the bundled traces.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn golden(trace: &str, out: &Path, extra: &[&str]) -> (String, Value) {
+    let o = Command::new(env!("CARGO_BIN_EXE_postwarp"))
+        .arg("golden")
+        .arg(root().join("traces").join(trace))
+        .arg("--out")
+        .arg(out)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    (String::from_utf8(o.stdout).unwrap(), report)
+}
+
+#[test]
+fn hole_fill_raises_quality_on_room() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, fill) = golden("room", &dir.path().join("fill"), &[]);
+    let (_, bare) = golden("room", &dir.path().join("bare"), &["--no-hole-fill"]);
+    let m = |r: &Value, k: &str| r["mean"][k].as_f64().unwrap();
+    assert!(m(&bare, "hole_fraction") > 0.0, "room must have holes for this test to mean anything");
+    assert!(
+        m(&fill, "psnr_luma_db") > m(&bare, "psnr_luma_db"),
+        "{} vs {}",
+        m(&fill, "psnr_luma_db"),
+        m(&bare, "psnr_luma_db")
+    );
+    assert!(m(&fill, "ssim_luma") > m(&bare, "ssim_luma"));
+    assert_eq!(m(&fill, "empty_samples"), 0.0, "the fill reaches every hole on room");
+}
+
+#[test]
+fn printed_table_and_report_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    let (stdout, report) = golden("occluders", dir.path(), &[]);
+    let keys = [
+        "psnr_rgb_db",
+        "psnr_rgb_covered_db",
+        "psnr_luma_db",
+        "ssim_luma",
+        "flip_mean",
+        "hole_fraction",
+        "delta_e20_fraction",
+        "host_ms",
+    ];
+    let scale = [1.0, 1.0, 1.0, 1.0, 1.0, 100.0, 100.0, 1.0];
+    let decimals = [2, 2, 2, 4, 4, 2, 2, 1];
+    let frames = report["frames"].as_array().unwrap();
+    let mut rows = 0;
+    for line in stdout.lines() {
+        let cells: Vec<&str> = line.split_whitespace().collect();
+        if cells.len() != 9 {
+            continue;
+        }
+        let entry = match cells[0] {
+            "mean" => &report["mean"],
+            i => match i.parse::<usize>() {
+                Ok(i) => &frames[i],
+                Err(_) => continue,
+            },
+        };
+        for (k, key) in keys.iter().enumerate() {
+            let want = format!("{:.*}", decimals[k], entry[key].as_f64().unwrap() * scale[k]);
+            assert_eq!(cells[k + 1], want, "{key} of row {}", cells[0]);
+        }
+        rows += 1;
+    }
+    assert_eq!(rows, frames.len() + 1, "{stdout}");
+    for f in frames {
+        for key in [
+            "index",
+            "psnr_rgb_db",
+            "psnr_rgb_covered_db",
+            "psnr_luma_db",
+            "ssim_luma",
+            "flip_mean",
+            "hole_fraction",
+            "delta_e20_fraction",
+            "host_ms",
+            "kernel_sizes",
+            "fragments_per_pixel",
+            "forced_merges",
+            "hole_samples",
+        ] {
+            assert!(f.get(key).is_some(), "frame lacks {key}");
+        }
+    }
+}
+
+/// The golden images of every bundled trace, byte for byte. Set
+/// `UPDATE_GOLDEN=1` to rewrite `tests/data/golden/` after an intended change.
+#[test]
+fn golden_images_match_the_committed_ones() {
+    let update = std::env::var_os("UPDATE_GOLDEN").is_some();
+    let dir = tempfile::tempdir().unwrap();
+    for trace in ["room", "slants", "hairball", "occluders", "motorcycle"] {
+        let out = dir.path().join(trace);
+        golden(trace, &out, &[]);
+        let want_dir = root().join("tests/data/golden").join(trace);
+        let mut n = 0;
+        for e in std::fs::read_dir(&out).unwrap() {
+            let p = e.unwrap().path();
+            let name = p.file_name().unwrap().to_string_lossy().to_string();
+            if !(name.starts_with("frame-") && name.ends_with(".png")) {
+                continue;
+            }
+            let want = want_dir.join(&name);
+            if update {
+                std::fs::create_dir_all(&want_dir).unwrap();
+                std::fs::copy(&p, &want).unwrap();
+            }
+            let got = std::fs::read(&p).unwrap();
+            let expected = std::fs::read(&want)
+                .unwrap_or_else(|_| panic!("missing {} (UPDATE_GOLDEN=1 writes it)", want.display()));
+            assert!(got == expected, "{trace}/{name} differs from {}", want.display());
+            n += 1;
+        }
+        assert!(n > 0, "{trace}: no frames");
+    }
+}
+
+#[test]
+fn motorcycle_reports_whole_and_covered_psnr() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, r) = golden("motorcycle", dir.path(), &[]);
+    let f = &r["frames"][0];
+    let whole = f["psnr_rgb_db"].as_f64().unwrap();
+    let covered = f["psnr_rgb_covered_db"].as_f64().unwrap();
+    // A warp of the left view must beat the unwarped left image (12.6 dB) by far.
+    assert!(whole > 18.0, "{whole}");
+    assert!(covered >= whole, "covered pixels score at least the whole image: {covered} vs {whole}");
+    assert_eq!(r["references"]["slopes"][0], "finite-difference", "Middlebury has no slopes: the report says so");
+}
+
+#[test]
+fn every_report_key_is_documented() {
+    let doc = std::fs::read_to_string(root().join("docs/report.md")).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let (_, r) = golden("slants", dir.path(), &[]);
+    for key in r["frames"][0].as_object().unwrap().keys() {
+        assert!(doc.contains(&format!("| `{key}` |")), "docs/report.md lacks `{key}`");
+    }
+    for key in r.as_object().unwrap().keys() {
+        assert!(doc.contains(&format!("\"{key}\"")), "docs/report.md lacks top-level `{key}`");
+    }
+}
