@@ -14,7 +14,7 @@
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use postwarp::golden::config::GoldenConfig;
-use postwarp::golden::frame::{prepare_reference, warp_frame};
+use postwarp::golden::frame::{Warper, prepare_reference};
 use postwarp::methods::forward_splat;
 use postwarp::path::predict::predict_pose;
 use postwarp::scene::Scene;
@@ -80,7 +80,9 @@ fn bench(c: &mut Criterion) {
     // Flat sampling with a target below 10 iterations' time: one iteration
     // per sample, so the whole bench stays near 40 s on a 2-core machine.
     g.measurement_time(Duration::from_secs(20));
-    g.bench_function("golden", |b| pool.install(|| b.iter(|| black_box(warp_frame(&input.cmd, &refs, &cfg)))));
+    // One warper reused across frames, as `postwarp golden` does.
+    let mut warper = Warper::new();
+    g.bench_function("golden", |b| pool.install(|| b.iter(|| black_box(warper.warp_frame(&input.cmd, &refs, &cfg)))));
     g.measurement_time(Duration::from_secs(5));
     g.bench_function("forward_splat", |b| pool.install(|| b.iter(|| black_box(forward_splat(&input.cmd, &refs)))));
     g.finish();

@@ -148,14 +148,14 @@ fn warp_one(
     let cams: Vec<(usize, Camera)> = refs.iter().copied().enumerate().collect();
     let cmd = FrameCommands::new(0, *derived, ss, &cams);
     let dst = derived.sample_grid(ss);
-    let ctx = WarpContext {
-        setup: cmd.warps[this].setup,
-        src: cmd.warps[this].reference_camera,
+    let ctx = WarpContext::new(
+        cmd.warps[this].setup,
+        cmd.warps[this].reference_camera,
         dst,
-        centres: refs.iter().map(|c| c.pose.position).collect(),
+        refs.iter().map(|c| c.pose.position).collect(),
         this,
-        better_margin: cfg.better_margin,
-    };
+        cfg.better_margin,
+    );
     let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
     let mut st = GoldenStats::default();
     d.begin_warp();

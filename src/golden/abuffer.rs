@@ -115,14 +115,38 @@ fn plane_at(f: &Fragment, ox: f32, oy: f32) -> f32 {
     f.inv_z + f.slopes[0] * ox + f.slopes[1] * oy
 }
 
+/// Most samples per pixel (4x4 super-sampling).
+const MAX_SS2: usize = 16;
+
+/// A fragment being built: fragment, colour sum, weight sum, sample count.
+type Building = (Fragment, [f64; 3], f64, u32);
+
+/// Fragments of one pixel, at most [`MAX_SS2`].
+#[derive(Clone, Copy)]
+pub struct PixelFragments {
+    frags: [Fragment; MAX_SS2],
+    len: usize,
+}
+
+impl PixelFragments {
+    /// The fragments.
+    pub fn as_slice(&self) -> &[Fragment] {
+        &self.frags[..self.len]
+    }
+}
+
+const EMPTY: Fragment =
+    Fragment { colour: [0.0; 3], inv_z: 0.0, slopes: [0.0; 2], mask: 0, real: false, key: 0, weight: 0.0 };
+
 /// Group one pixel's samples into fragments (rules 1–3).
-fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut AbufferStats) -> Vec<Fragment> {
+fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut AbufferStats) -> PixelFragments {
     let ss = p.ss;
-    let mut frags: Vec<(Fragment, [f64; 3], f64, u32)> = Vec::new(); // fragment, colour sum, weight sum, count
+    let mut frags: [Building; MAX_SS2] = [(EMPTY, [0.0; 3], 0.0, 0); MAX_SS2];
+    let mut n = 0usize;
     for (k, s) in samples.iter().enumerate() {
         let Some(s) = s else { continue };
         let (ox, oy) = (offset(ss, k as u32 % ss), offset(ss, k as u32 / ss));
-        let found = frags.iter().position(|(f, ..)| {
+        let found = frags[..n].iter().position(|(f, ..)| {
             f.real == s.real && f.key == s.key && {
                 if !s.real {
                     true
@@ -137,17 +161,22 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
             Some(i) => i,
             None => {
                 let inv_z_c = if s.real { s.inv_z - s.slopes[0] * ox - s.slopes[1] * oy } else { 0.0 };
-                let f = Fragment {
-                    colour: [0.0; 3],
-                    inv_z: inv_z_c,
-                    slopes: if s.real { s.slopes } else { [0.0; 2] },
-                    mask: 0,
-                    real: s.real,
-                    key: s.key,
-                    weight: 0.0,
-                };
-                frags.push((f, [0.0; 3], 0.0, 0));
-                frags.len() - 1
+                frags[n] = (
+                    Fragment {
+                        colour: [0.0; 3],
+                        inv_z: inv_z_c,
+                        slopes: if s.real { s.slopes } else { [0.0; 2] },
+                        mask: 0,
+                        real: s.real,
+                        key: s.key,
+                        weight: 0.0,
+                    },
+                    [0.0; 3],
+                    0.0,
+                    0,
+                );
+                n += 1;
+                n - 1
             }
         };
         let e = &mut frags[idx];
@@ -158,13 +187,12 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
         e.2 += s.weight as f64;
         e.3 += 1;
     }
-    stats.record(frags.len());
-    let mut out: Vec<(Fragment, [f64; 3], f64, u32)> = frags;
-    while out.len() > p.max_fragments as usize && out.len() > 1 {
+    stats.record(n);
+    while n > p.max_fragments as usize && n > 1 {
         let mut best = (u8::MAX, u8::MAX, f64::INFINITY, 0usize, 0usize);
-        for i in 0..out.len() {
-            for j in i + 1..out.len() {
-                let (a, b) = (&out[i].0, &out[j].0);
+        for i in 0..n {
+            for j in i + 1..n {
+                let (a, b) = (&frags[i].0, &frags[j].0);
                 let key = ((a.real != b.real) as u8, (a.key != b.key) as u8, (a.inv_z as f64 - b.inv_z as f64).abs());
                 if (key.0, key.1) < (best.0, best.1) || ((key.0, key.1) == (best.0, best.1) && key.2 < best.2) {
                     best = (key.0, key.1, key.2, i, j);
@@ -172,8 +200,10 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
             }
         }
         let (i, j) = (best.3, best.4);
-        let b = out.remove(j);
-        let a = &mut out[i];
+        let b = frags[j];
+        frags.copy_within(j + 1..n, j);
+        n -= 1;
+        let a = &mut frags[i];
         let dominant_b = b.3 > a.3 || (b.3 == a.3 && b.0.inv_z > a.0.inv_z);
         if dominant_b {
             a.0.inv_z = b.0.inv_z;
@@ -189,14 +219,12 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
         a.3 += b.3;
         stats.forced_merges += 1;
     }
-    out.into_iter()
-        .map(|(mut f, sum, wsum, n)| {
-            let n = n as f64;
-            f.colour = sum.map(|c| (c / n) as f32);
-            f.weight = (wsum / n) as f32;
-            f
-        })
-        .collect()
+    let mut out = PixelFragments { frags: [EMPTY; MAX_SS2], len: n };
+    for (o, (f, sum, wsum, cnt)) in out.frags.iter_mut().zip(&frags[..n]) {
+        let cnt = *cnt as f64;
+        *o = Fragment { colour: sum.map(|c| (c / cnt) as f32), weight: (wsum / cnt) as f32, ..*f };
+    }
+    out
 }
 
 fn for_each_pixel(width: u32, height: u32, ss: u32, mut f: impl FnMut(u32, u32, &[usize])) {
@@ -236,7 +264,7 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
             })
         }));
         let frags = compress_pixel(&views, p, stats);
-        for f in &frags {
+        for f in frags.as_slice() {
             for (k, &i) in idx.iter().enumerate() {
                 if f.mask & (1 << k) != 0 {
                     let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
@@ -266,42 +294,46 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
     if p.max_fragments == 0 {
         return;
     }
-    let mut views = Vec::with_capacity((p.ss * p.ss) as usize);
-    let (w, h) = (d.width, d.height);
-    let mut updates: Vec<(usize, Option<Fragment>, f32, f32)> = Vec::new();
-    for_each_pixel(w, h, p.ss, |_, _, idx| {
-        views.clear();
-        views.extend(idx.iter().map(|&i| {
-            (d.real[i] || d.hole[i]).then(|| SampleView {
-                colour: d.colour[i],
-                inv_z: d.inv_z[i],
-                slopes: d.slopes[i],
-                real: d.real[i],
-                key: d.source[i] as u32,
-                weight: d.fill_weight[i],
-            })
-        }));
-        let frags = compress_pixel(&views, p, stats);
-        for (k, &i) in idx.iter().enumerate() {
-            let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
-            let f = frags.iter().find(|f| f.mask & (1 << k) != 0).copied();
-            updates.push((i, f, ox, oy));
-        }
-    });
-    for (i, f, ox, oy) in updates {
-        match f {
-            None => {
-                d.real.set(i, false);
-                d.hole.set(i, false);
+    let ss = p.ss as usize;
+    let w = d.width as usize;
+    let mut views = [None; MAX_SS2];
+    let mut idx = [0usize; MAX_SS2];
+    for py in 0..d.height as usize / ss {
+        for px in 0..w / ss {
+            for j in 0..ss {
+                for i in 0..ss {
+                    let k = j * ss + i;
+                    let s = (py * ss + j) * w + px * ss + i;
+                    idx[k] = s;
+                    views[k] = (d.real[s] || d.hole[s]).then(|| SampleView {
+                        colour: d.colour[s],
+                        inv_z: d.inv_z[s],
+                        slopes: d.slopes[s],
+                        real: d.real[s],
+                        key: d.source[s] as u32,
+                        weight: d.fill_weight[s],
+                    });
+                }
             }
-            Some(f) => {
-                d.colour[i] = f.colour;
-                d.inv_z[i] = if f.real { plane_at(&f, ox, oy) } else { 0.0 };
-                d.slopes[i] = f.slopes;
-                d.source[i] = f.key as u8;
-                d.real.set(i, f.real);
-                d.hole.set(i, !f.real);
-                d.fill_weight[i] = f.weight;
+            let frags = compress_pixel(&views[..ss * ss], p, stats);
+            // Pixels do not overlap: write this one back at once.
+            for (k, &i) in idx[..ss * ss].iter().enumerate() {
+                let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+                match frags.as_slice().iter().find(|f| f.mask & (1 << k) != 0) {
+                    None => {
+                        d.real.set(i, false);
+                        d.hole.set(i, false);
+                    }
+                    Some(f) => {
+                        d.colour[i] = f.colour;
+                        d.inv_z[i] = if f.real { plane_at(f, ox, oy) } else { 0.0 };
+                        d.slopes[i] = f.slopes;
+                        d.source[i] = f.key as u8;
+                        d.real.set(i, f.real);
+                        d.hole.set(i, !f.real);
+                        d.fill_weight[i] = f.weight;
+                    }
+                }
             }
         }
     }
@@ -335,7 +367,7 @@ pub fn compress_reference_pixel(img: &SampleImage, px: u32, py: u32, p: &Abuffer
             }));
         }
     }
-    compress_pixel(&views, p, &mut AbufferStats::default())
+    compress_pixel(&views, p, &mut AbufferStats::default()).as_slice().to_vec()
 }
 
 /// Valid-sample mask of a reference pixel (bit `j·ss + i`).

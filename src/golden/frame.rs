@@ -25,6 +25,7 @@
 use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
 use super::composite::{Candidate, Kind, Outcome, composite};
 use super::config::{GoldenConfig, Reconstruction, WarpOrder};
+use super::cull;
 use super::general;
 use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
 use super::kernel_setup::{GroupState, bounding_box, corners, group, same_surface};
@@ -32,7 +33,7 @@ use super::planes::DestPlanes;
 use super::raster::rect;
 use super::resolve::resolve;
 use super::transform::{Transformed, WarpContext, backward_neighbour};
-use super::traversal;
+use super::traversal::OrderKey;
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use postwarp_rtl::{FrameCommands, SampleImage};
@@ -143,54 +144,55 @@ pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> Prep
 }
 
 /// Produce derived frame `cmd` from its prepared references (`refs[j]` for
-/// `cmd.warps[j]`).
+/// `cmd.warps[j]`). Allocates its buffers: use [`Warper::warp_frame`] in a loop.
 pub fn warp_frame(cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig) -> GoldenFrame {
-    let ss = cmd.supersample;
-    let dst = cmd.derived_camera.sample_grid(ss);
-    let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
-    let mut st =
-        GoldenStats { kernel_sizes: vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1], ..Default::default() };
-    let mut ab = AbufferStats::default();
-    let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
-    for (j, (warp, img)) in cmd.warps.iter().zip(refs).enumerate() {
-        let ctx = WarpContext {
-            setup: warp.setup,
-            src: warp.reference_camera,
-            dst,
-            centres: centres.clone(),
-            this: j,
-            better_margin: cfg.better_margin,
-        };
-        d.begin_warp();
-        match cfg.reconstruction {
-            Reconstruction::AaRect => warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st),
-            Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
+    Warper::new().warp_frame(cmd, refs, cfg)
+}
+
+impl Warper {
+    /// Produce derived frame `cmd` from its prepared references (`refs[j]`
+    /// for `cmd.warps[j]`).
+    pub fn warp_frame(&mut self, cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig) -> GoldenFrame {
+        let ss = cmd.supersample;
+        let dst = cmd.derived_camera.sample_grid(ss);
+        let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
+        let mut st =
+            GoldenStats { kernel_sizes: vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1], ..Default::default() };
+        let mut ab = AbufferStats::default();
+        let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
+        for (j, (warp, img)) in cmd.warps.iter().zip(refs).enumerate() {
+            let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
+            d.begin_warp();
+            match cfg.reconstruction {
+                Reconstruction::AaRect => warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st, &mut self.scratch),
+                Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
+            }
+            if cfg.hole_fill {
+                let hf = hole_fill(
+                    &mut d,
+                    &warp.setup.epipole_derived,
+                    &HoleFillParams {
+                        far_distance: cfg.hole_far_distance,
+                        far_offset: cfg.hole_far_offset,
+                        max_distance: cfg.hole_max_distance,
+                    },
+                );
+                add_hole_stats(&mut st, &hf);
+            }
+            round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
+            if ss > 1 && cfg.abuffer_fragments > 0 {
+                // The A-buffer holds no mesh/splat bit (general path); at ss = 1
+                // each pixel is one fragment and the trip changes nothing.
+                d.forget_splats();
+            }
         }
-        if cfg.hole_fill {
-            let hf = hole_fill(
-                &mut d,
-                &warp.setup.epipole_derived,
-                &HoleFillParams {
-                    far_distance: cfg.hole_far_distance,
-                    far_offset: cfg.hole_far_offset,
-                    max_distance: cfg.hole_max_distance,
-                },
-            );
-            add_hole_stats(&mut st, &hf);
-        }
-        round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
-        if ss > 1 && cfg.abuffer_fragments > 0 {
-            // The A-buffer holds no mesh/splat bit (general path); at ss = 1
-            // each pixel is one fragment and the trip changes nothing.
-            d.forget_splats();
-        }
+        st.fragments_per_pixel = ab.fragments_per_pixel;
+        st.forced_merges = ab.forced_merges;
+        st.hole_samples = d.hole.count_ones() as u64;
+        st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
+        let (pixels, covered) = resolve(&d, ss);
+        GoldenFrame { samples: d, pixels, covered, stats: st }
     }
-    st.fragments_per_pixel = ab.fragments_per_pixel;
-    st.forced_merges = ab.forced_merges;
-    st.hole_samples = d.hole.count_ones() as u64;
-    st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
-    let (pixels, covered) = resolve(&d, ss);
-    GoldenFrame { samples: d, pixels, covered, stats: st }
 }
 
 fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
@@ -198,7 +200,39 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
     st.hole_fill_unreached += hf.unreached;
 }
 
-/// Warp one reference into `d` (rules 2 and 4).
+/// A kernel ready to draw: its candidate and warp-order key.
+struct Kernel {
+    cand: Candidate,
+    key: u64,
+}
+
+/// Working buffers of one reference warp, kept across warps and frames so
+/// that a run does not page-fault fresh memory for every warp.
+#[derive(Default)]
+struct Scratch {
+    warped: Vec<Option<Transformed>>,
+    groups: Vec<(GroupState, DVec2)>,
+    kernels: Vec<Kernel>,
+    entries: Vec<(u32, u32)>,
+    start: Vec<u32>,
+    sorted: Vec<u32>,
+}
+
+/// The golden model with its working buffers: create one and reuse it for
+/// every frame of a run.
+#[derive(Default)]
+pub struct Warper {
+    scratch: Scratch,
+}
+
+impl Warper {
+    /// A warper with empty buffers.
+    pub fn new() -> Warper {
+        Warper::default()
+    }
+}
+
+/// Warp one reference into `d` (rules 2, 4 and 5).
 fn warp_reference(
     ctx: &WarpContext,
     img: &SampleImage,
@@ -206,74 +240,128 @@ fn warp_reference(
     cfg: &GoldenConfig,
     d: &mut DestPlanes,
     st: &mut GoldenStats,
+    scratch: &mut Scratch,
 ) {
+    let Scratch { warped, groups, kernels, entries, start, sorted } = scratch;
     let (w, h) = (img.width, img.height);
-    let warped: Vec<Option<Transformed>> = (0..img.len())
-        .map(|i| {
-            if !img.valid[i] {
-                return None;
-            }
-            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
-            ctx.transform(x, y, 1.0 / img.z[i] as f64)
-        })
-        .collect();
-    let valid = img.valid.count_ones() as u64;
-    st.reference_samples += valid;
-    st.culled_samples += valid - warped.iter().filter(|t| t.is_some()).count() as u64;
-
-    let mut groups = Vec::with_capacity(((w.max(1) - 1) * (h.max(1) - 1)) as usize);
-    for gy in 0..h.saturating_sub(1) {
-        for gx in 0..w.saturating_sub(1) {
-            let g = group(&warped, w, gx, gy, cfg.threshold);
-            match g.0 {
-                GroupState::Discontinuous => st.discontinuous_groups += 1,
-                GroupState::Folded => st.folded_groups += 1,
-                _ => {}
-            }
-            groups.push(g);
+    st.reference_samples += img.valid.count_ones() as u64;
+    let live = cull::live_blocks(ctx, img, d.width, d.height);
+    let Some((rx0, ry0, rx1, ry1)) = live.bounds(w, h) else { return };
+    // The live region plus its one-sample ring (neighbours of live samples).
+    let (qx0, qy0) = (rx0.saturating_sub(1), ry0.saturating_sub(1));
+    let (qx1, qy1) = ((rx1 + 1).min(w - 1), (ry1 + 1).min(h - 1));
+    let qw = (qx1 - qx0 + 1) as usize;
+    let qi = |x: u32, y: u32| (y - qy0) as usize * qw + (x - qx0) as usize;
+    warped.clear();
+    warped.reserve(qw * (qy1 - qy0 + 1) as usize);
+    for y in qy0..=qy1 {
+        for x in qx0..=qx1 {
+            let i = img.index(x, y);
+            let t = if img.valid[i] { ctx.transform(x as f64, y as f64, 1.0 / img.z[i] as f64) } else { None };
+            st.culled_samples += (img.valid[i] && t.is_none()) as u64;
+            warped.push(t);
         }
     }
-
-    let mut order = traversal::order(w, h, &ctx.setup.epipole_reference);
-    if cfg.warp_order == WarpOrder::Reverse {
-        order.reverse();
+    // Samples outside the region are in culled blocks, where W > 0 (cull.rs).
+    let at = |x: u32, y: u32| warped[qi(x, y)];
+    groups.clear();
+    groups.reserve(qw * (qy1 - qy0 + 1) as usize);
+    for gy in qy0..=qy1 {
+        for gx in qx0..=qx1 {
+            groups.push(if gx < qx1 && gy < qy1 {
+                group(at, gx, gy, cfg.threshold)
+            } else {
+                (GroupState::Missing, DVec2::ZERO)
+            });
+        }
     }
+    let group_at = |gx: u32, gy: u32| groups[qi(gx, gy)];
+    let keys = OrderKey::new(w, h, &ctx.setup.epipole_reference);
+    let reverse = cfg.warp_order == WarpOrder::Reverse;
     let size = (d.width, d.height);
-    for (x, y) in order {
-        let i = img.index(x, y);
-        let Some(t) = warped[i] else { continue };
-        let (c, edges) = corners(ctx, img, &t, &groups, x, y);
-        st.edge_corners += edges as u64;
-        let (x0, x1, y0, y1) = bounding_box(&c);
-        let r = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, size);
-        let (kw, kh) = (r.size.0 as usize, r.size.1 as usize);
-        st.kernel_sizes[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
-        st.kernels_over_limit += r.over_limit as u64;
-        if r.x.0 > r.x.1 || r.y.0 > r.y.1 {
-            continue;
-        }
-        let inv_z = 1.0 / img.z[i] as f64;
-        let slopes = ctx.dest_slopes(x as f64, y as f64, inv_z, img.inv_z_slopes[i]);
-        let fill_colour = match forward_edge_neighbour(ctx, img, &warped, &t, x, y, cfg.threshold) {
-            Some(k) => {
-                st.forward_edges += 1;
-                img.colour[k]
+
+    // Phase A, raster order: every kernel that reaches the derived image.
+    kernels.clear();
+    entries.clear(); // (derived sample, kernel)
+    for y in ry0..=ry1 {
+        for x in rx0..=rx1 {
+            if !live.sample_live(x, y) {
+                continue;
             }
-            None => img.colour[i],
-        };
-        let cand = Candidate {
-            colour: img.colour[i],
-            inv_z: t.inv_z as f32,
-            slopes: [slopes[0] as f32, slopes[1] as f32],
-            source,
-            better: ctx.better_mask(x as f64, y as f64, inv_z, img.inv_z_slopes[i]),
-            fill_colour,
-            kind: Kind::Mesh,
-        };
-        r.for_each(|sx, sy| {
-            let k = (sy * d.width + sx) as usize;
-            count_outcome(st, composite(d, k, &cand, cfg.slope_tol, cfg.rel_tol));
-        });
+            let Some(t) = at(x, y) else { continue };
+            let (c, edges) = corners(ctx, img, &t, group_at, x, y);
+            let (x0, x1, y0, y1) = bounding_box(&c);
+            let r = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, size);
+            if r.x.0 > r.x.1 || r.y.0 > r.y.1 {
+                continue;
+            }
+            let (kw, kh) = (r.size.0 as usize, r.size.1 as usize);
+            st.kernel_sizes[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
+            st.kernels_over_limit += r.over_limit as u64;
+            st.edge_corners += edges as u64;
+            if x + 1 < w && y + 1 < h {
+                match group_at(x, y).0 {
+                    GroupState::Discontinuous => st.discontinuous_groups += 1,
+                    GroupState::Folded => st.folded_groups += 1,
+                    _ => {}
+                }
+            }
+            let i = img.index(x, y);
+            let inv_z = 1.0 / img.z[i] as f64;
+            let slopes = ctx.dest_slopes(x as f64, y as f64, inv_z, img.inv_z_slopes[i]);
+            let fill_colour = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
+                Some(k) => {
+                    st.forward_edges += 1;
+                    img.colour[k]
+                }
+                None => img.colour[i],
+            };
+            let cand = Candidate {
+                colour: img.colour[i],
+                inv_z: t.inv_z as f32,
+                slopes: [slopes[0] as f32, slopes[1] as f32],
+                source,
+                better: ctx.better_mask(x as f64, y as f64, inv_z, img.inv_z_slopes[i]),
+                fill_colour,
+                kind: Kind::Mesh,
+            };
+            let key = keys.key(x, y);
+            let k = kernels.len() as u32;
+            r.for_each(|sx, sy| entries.push((sy * d.width + sx, k)));
+            kernels.push(Kernel { cand, key: if reverse { !key } else { key } });
+        }
+    }
+
+    // Phase B: per derived sample, composite its candidates in warp order.
+    // Compositing touches only its own sample, so this equals drawing the
+    // kernels one by one in warp order (rule 2).
+    // Counting sort of the entries by derived sample (stable).
+    start.clear();
+    start.resize(d.len() + 1, 0);
+    for &(s, _) in entries.iter() {
+        start[s as usize + 1] += 1;
+    }
+    for i in 0..d.len() {
+        start[i + 1] += start[i];
+    }
+    sorted.clear();
+    sorted.resize(entries.len(), 0);
+    for &(s, k) in entries.iter() {
+        sorted[start[s as usize] as usize] = k;
+        start[s as usize] += 1;
+    }
+    // start[s] is now the end of bucket s.
+    let mut begin = 0usize;
+    for s in 0..d.len() {
+        let end = start[s] as usize;
+        let bucket = &mut sorted[begin..end];
+        begin = end;
+        if bucket.len() > 1 {
+            bucket.sort_unstable_by_key(|&k| kernels[k as usize].key);
+        }
+        for &k in bucket.iter() {
+            count_outcome(st, composite(d, s, &kernels[k as usize].cand, cfg.slope_tol, cfg.rel_tol));
+        }
     }
 }
 
@@ -299,7 +387,7 @@ pub(super) fn count_outcome(st: &mut GoldenStats, o: Outcome) {
 pub(super) fn forward_edge_neighbour(
     ctx: &WarpContext,
     img: &SampleImage,
-    warped: &[Option<Transformed>],
+    at: impl Fn(u32, u32) -> Option<Transformed>,
     t: &Transformed,
     x: u32,
     y: u32,
@@ -311,7 +399,7 @@ pub(super) fn forward_edge_neighbour(
         return None;
     }
     let k = img.index(nx as u32, ny as u32);
-    let tn = warped[k]?;
+    let tn = at(nx as u32, ny as u32)?;
     let i = img.index(x, y);
     let offset = DVec2::new(dx as f64, dy as f64).length();
     (img.z[k] > img.z[i] && !same_surface(t, &tn, offset, threshold)).then_some(k)

@@ -157,7 +157,7 @@ pub fn warp_reference_general_with(
     let mut meshed = vec![false; (gw * h.saturating_sub(1)) as usize];
     for gy in 0..h.saturating_sub(1) {
         for gx in 0..gw {
-            let state = group(&warped, w, gx, gy, cfg.threshold).0;
+            let state = group(|x, y| warped[(y * w + x) as usize], gx, gy, cfg.threshold).0;
             match state {
                 GroupState::Discontinuous => st.discontinuous_groups += 1,
                 GroupState::Folded => st.folded_groups += 1,
@@ -177,7 +177,7 @@ pub fn warp_reference_general_with(
         let Some(t) = t else { continue };
         let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
         better[i] = ctx.better_mask(x as f64, y as f64, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]);
-        fill[i] = match forward_edge_neighbour(ctx, img, &warped, t, x, y, cfg.threshold) {
+        fill[i] = match forward_edge_neighbour(ctx, img, |x, y| warped[(y * w + x) as usize], t, x, y, cfg.threshold) {
             Some(k) => {
                 st.forward_edges += 1;
                 img.colour[k]

@@ -52,9 +52,9 @@ pub fn folded(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
     (0..4).any(|k| cross(q[(k + 1) % 4] - q[k], q[(k + 2) % 4] - q[(k + 1) % 4]) <= 0.0)
 }
 
-/// State and shared corner of the group whose top-left sample is `(gx, gy)`.
-pub fn group(warped: &[Option<Transformed>], width: u32, gx: u32, gy: u32, threshold: f64) -> (GroupState, DVec2) {
-    let at = |x: u32, y: u32| warped[(y * width + x) as usize];
+/// State and shared corner of the group whose top-left sample is `(gx, gy)`;
+/// `at(x, y)` gives a sample's warp (`None`: no surface or culled).
+pub fn group(at: impl Fn(u32, u32) -> Option<Transformed>, gx: u32, gy: u32, threshold: f64) -> (GroupState, DVec2) {
     let (Some(a), Some(b), Some(c), Some(d)) = (at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1)) else {
         return (GroupState::Missing, DVec2::ZERO);
     };
@@ -70,13 +70,13 @@ pub fn group(warped: &[Option<Transformed>], width: u32, gx: u32, gy: u32, thres
 }
 
 /// The four corners of sample `(x, y)`'s kernel, and how many were edge
-/// corners (rules 2–3). `groups[(gy·(w−1)+gx)]` holds each group's state and
-/// shared corner.
+/// corners (rules 2–3). `group_at(gx, gy)` gives the state and shared corner
+/// of the group whose top-left sample is `(gx, gy)`.
 pub fn corners(
     ctx: &WarpContext,
     img: &SampleImage,
     t: &Transformed,
-    groups: &[(GroupState, DVec2)],
+    group_at: impl Fn(u32, u32) -> (GroupState, DVec2),
     x: u32,
     y: u32,
 ) -> ([DVec2; 4], u32) {
@@ -89,7 +89,7 @@ pub fn corners(
         let gx = x as i64 + if sx < 0 { -1 } else { 0 };
         let gy = y as i64 + if sy < 0 { -1 } else { 0 };
         let shared = if gx >= 0 && gy >= 0 && (gx as u32) + 1 < w && (gy as u32) + 1 < h {
-            let g = groups[(gy as u32 * (w - 1) + gx as u32) as usize];
+            let g = group_at(gx as u32, gy as u32);
             (g.0 == GroupState::Shared).then_some(g.1)
         } else {
             None
@@ -145,12 +145,15 @@ mod tests {
     #[test]
     fn group_shares_the_mean_corner() {
         let warped = vec![Some(t(0.0, 0.0)), Some(t(1.0, 0.0)), Some(t(0.0, 1.0)), Some(t(1.0, 1.0))];
-        let (s, c) = group(&warped, 2, 0, 0, 1.4);
+        fn at(w: &[Option<Transformed>]) -> impl Fn(u32, u32) -> Option<Transformed> + '_ {
+            move |x, y| w[(y * 2 + x) as usize]
+        }
+        let (s, c) = group(at(&warped), 0, 0, 1.4);
         assert_eq!((s, c), (GroupState::Shared, DVec2::new(0.5, 0.5)));
         let mut gap = warped.clone();
         gap[3] = Some(t(3.0, 1.0));
-        assert_eq!(group(&gap, 2, 0, 0, 1.4).0, GroupState::Discontinuous);
+        assert_eq!(group(at(&gap), 0, 0, 1.4).0, GroupState::Discontinuous);
         gap[3] = None;
-        assert_eq!(group(&gap, 2, 0, 0, 1.4).0, GroupState::Missing);
+        assert_eq!(group(at(&gap), 0, 0, 1.4).0, GroupState::Missing);
     }
 }

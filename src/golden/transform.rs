@@ -30,7 +30,7 @@
 //!
 //! Not modelled: fixed-point datapaths (FP64 here, stored as FP32).
 
-use glam::{DMat2, DVec2, DVec3};
+use glam::{DMat2, DMat3, DVec2, DVec3};
 use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::{Camera, WarpSetup};
 
@@ -60,6 +60,11 @@ pub struct WarpContext {
     pub this: usize,
     /// Margin of the better-reference test (fraction).
     pub better_margin: f64,
+    /// Focal lengths (geometric mean) of the reference and derived sample grids.
+    focal_src: f64,
+    focal_dst: f64,
+    /// Reference camera-to-world rotation as a matrix.
+    rot_src: DMat3,
 }
 
 fn focal(c: &Camera) -> f64 {
@@ -72,6 +77,29 @@ fn ray_len(c: &Camera, x: f64, y: f64) -> f64 {
 }
 
 impl WarpContext {
+    /// The context of the warp `setup` from `src` to `dst` (sample grids);
+    /// `centres` are all references' centres in warp order, `this` is ours.
+    pub fn new(
+        setup: WarpSetup,
+        src: Camera,
+        dst: Camera,
+        centres: Vec<DVec3>,
+        this: usize,
+        better_margin: f64,
+    ) -> Self {
+        WarpContext {
+            setup,
+            src,
+            dst,
+            centres,
+            this,
+            better_margin,
+            focal_src: focal(&src),
+            focal_dst: focal(&dst),
+            rot_src: src.pose.rotation(),
+        }
+    }
+
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if behind the derived
     /// camera or not finite.
     pub fn transform(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
@@ -79,8 +107,8 @@ impl WarpContext {
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
             return None;
         }
-        let e = ray_len(&self.src, x, y) * focal(&self.dst)
-            / (w.w * ray_len(&self.dst, w.position.x, w.position.y) * focal(&self.src));
+        let e = ray_len(&self.src, x, y) * self.focal_dst
+            / (w.w * ray_len(&self.dst, w.position.x, w.position.y) * self.focal_src);
         Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
     }
 
@@ -143,7 +171,7 @@ impl WarpContext {
         let a = k.fx * slopes[0] as f64;
         let b = k.fy * slopes[1] as f64;
         let c0 = inv_z - a * xn - b * yn;
-        let r = self.src.pose.orientation;
+        let r = self.rot_src;
         let n = (r * DVec3::new(a, b, c0)).normalize_or_zero();
         if n == DVec3::ZERO {
             return 0;
@@ -168,9 +196,19 @@ pub fn backward_neighbour(epipole: &Epipole, x: f64, y: f64) -> Option<(i32, i32
     if d.length_squared() == 0.0 || !d.is_finite() {
         return None;
     }
-    let oct = (d.y.atan2(d.x) / std::f64::consts::FRAC_PI_4).round() as i32;
-    const DIRS: [(i32, i32); 8] = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)];
-    Some(DIRS[oct.rem_euclid(8) as usize])
+    // Nearest of the 8 directions: sectors of 45° centred on them, split at
+    // tan(22.5°) = √2 − 1 (no atan2 in the per-sample path).
+    const T: f64 = std::f64::consts::SQRT_2 - 1.0;
+    let (ax, ay) = (d.x.abs(), d.y.abs());
+    let sx = if d.x < 0.0 { -1 } else { 1 };
+    let sy = if d.y < 0.0 { -1 } else { 1 };
+    Some(if ay <= T * ax {
+        (sx, 0)
+    } else if ax <= T * ay {
+        (0, sy)
+    } else {
+        (sx, sy)
+    })
 }
 
 #[cfg(test)]
@@ -188,14 +226,7 @@ mod tests {
 
     fn ctx(dst_x: f64) -> WarpContext {
         let (s, d) = (cam(0.0), cam(dst_x));
-        WarpContext {
-            setup: WarpSetup::new(&s, &d),
-            src: s,
-            dst: d,
-            centres: vec![s.pose.position, d.pose.position],
-            this: 0,
-            better_margin: 0.05,
-        }
+        WarpContext::new(WarpSetup::new(&s, &d), s, d, vec![s.pose.position, d.pose.position], 0, 0.05)
     }
 
     #[test]

@@ -74,9 +74,12 @@ fn sign(v: f64) -> i32 {
     if v < 0.0 { -1 } else { 1 }
 }
 
+fn single_scan(d: DVec2) -> (Major, i32, i32) {
+    if d.y.abs() >= d.x.abs() { (Major::Row, sign(d.y), sign(d.x)) } else { (Major::Column, sign(d.x), sign(d.y)) }
+}
+
 fn single(width: u32, height: u32, d: DVec2) -> Sheet {
-    let (major, line_step, step) =
-        if d.y.abs() >= d.x.abs() { (Major::Row, sign(d.y), sign(d.x)) } else { (Major::Column, sign(d.x), sign(d.y)) };
+    let (major, line_step, step) = single_scan(d);
     let mut s = Sheet { major, line_step, step, samples: Vec::with_capacity(width as usize * height as usize) };
     scan(&mut s, width, height, |_, _| true);
     s
@@ -112,25 +115,34 @@ pub fn octant_of(x: u32, y: u32, e: DVec2) -> (bool, bool, bool) {
     (dy.abs() >= dx.abs(), dx >= 0.0, dy >= 0.0)
 }
 
+/// The octants in visiting order: (vertical, right, below).
+const OCTANTS: [(bool, bool, bool); 8] = [
+    (true, true, true),
+    (true, true, false),
+    (true, false, true),
+    (true, false, false),
+    (false, true, true),
+    (false, true, false),
+    (false, false, true),
+    (false, false, false),
+];
+
+/// Scan pattern of an octant: (major, line_step, step).
+fn octant_scan((vertical, right, below): (bool, bool, bool), ew_sign: f64) -> (Major, i32, i32) {
+    // D = ew·(e − p): inside this octant its component signs are fixed.
+    let dx_sign = if right { -ew_sign } else { ew_sign };
+    let dy_sign = if below { -ew_sign } else { ew_sign };
+    if vertical { (Major::Row, sign(dy_sign), sign(dx_sign)) } else { (Major::Column, sign(dx_sign), sign(dy_sign)) }
+}
+
 fn octants(width: u32, height: u32, e: DVec2, ew_sign: f64) -> Vec<Sheet> {
     let mut out = Vec::new();
-    for vertical in [true, false] {
-        for right in [true, false] {
-            for below in [true, false] {
-                // D = ew·(e − p): inside this octant its component signs are fixed.
-                let dx_sign = if right { -ew_sign } else { ew_sign };
-                let dy_sign = if below { -ew_sign } else { ew_sign };
-                let (major, line_step, step) = if vertical {
-                    (Major::Row, sign(dy_sign), sign(dx_sign))
-                } else {
-                    (Major::Column, sign(dx_sign), sign(dy_sign))
-                };
-                let mut s = Sheet { major, line_step, step, samples: Vec::new() };
-                scan_octant(&mut s, width, height, e, (vertical, right, below));
-                if !s.samples.is_empty() {
-                    out.push(s);
-                }
-            }
+    for oct in OCTANTS {
+        let (major, line_step, step) = octant_scan(oct, ew_sign);
+        let mut s = Sheet { major, line_step, step, samples: Vec::new() };
+        scan_octant(&mut s, width, height, e, oct);
+        if !s.samples.is_empty() {
+            out.push(s);
         }
     }
     out
@@ -168,6 +180,51 @@ fn scan_octant(s: &mut Sheet, width: u32, height: u32, e: DVec2, which: (bool, b
         } else {
             (lo..=hi).rev().for_each(&mut push);
         }
+    }
+}
+
+/// The rank of every sample in the forward order, computable in O(1):
+/// sorting samples by [`OrderKey::key`] gives exactly [`order`]. Used to
+/// composite candidates in warp order without walking the image in it.
+#[derive(Clone, Debug)]
+pub struct OrderKey {
+    width: u32,
+    height: u32,
+    /// Finite epipole point, if any.
+    point: Option<DVec2>,
+    /// Scan pattern per octant (finite epipole) or of the single sheet.
+    scans: [(Major, i32, i32); 8],
+}
+
+impl OrderKey {
+    /// Keys for a `width x height` image around `epipole`.
+    pub fn new(width: u32, height: u32, epipole: &Epipole) -> OrderKey {
+        let (point, scans) = match epipole.kind() {
+            EpipoleKind::Coincident => (None, [single_scan(DVec2::new(0.0, 1.0)); 8]),
+            EpipoleKind::Infinity { .. } => (None, [single_scan(DVec2::new(epipole.h.x, epipole.h.y)); 8]),
+            EpipoleKind::Front { point } => (Some(point), OCTANTS.map(|o| octant_scan(o, 1.0))),
+            EpipoleKind::Behind { point } => (Some(point), OCTANTS.map(|o| octant_scan(o, -1.0))),
+        };
+        OrderKey { width, height, point, scans }
+    }
+
+    /// Rank key of sample `(x, y)`: sheet, then line, then position in line.
+    pub fn key(&self, x: u32, y: u32) -> u64 {
+        let sheet = match self.point {
+            None => 0,
+            Some(e) => {
+                let o = octant_of(x, y, e);
+                OCTANTS.iter().position(|&c| c == o).unwrap_or(0)
+            }
+        };
+        let (major, line_step, step) = self.scans[sheet];
+        let (line, along, lines, len) = match major {
+            Major::Row => (y, x, self.height, self.width),
+            Major::Column => (x, y, self.width, self.height),
+        };
+        let l = if line_step > 0 { line } else { lines - 1 - line } as u64;
+        let a = if step > 0 { along } else { len - 1 - along } as u64;
+        ((sheet as u64) << 56) | (l << 28) | a
     }
 }
 
@@ -237,6 +294,29 @@ mod tests {
             let o = order(w, h, &e);
             check_permutation(w, h, &o);
             check_neighbours_ahead(w, h, &e);
+        }
+    }
+
+    #[test]
+    fn order_key_sorts_into_the_traversal_order() {
+        let (w, h) = (13u32, 9u32);
+        let cases = [
+            DVec3::new(6.3, 4.1, 1.0),
+            DVec3::new(-12.6, -8.2, -2.0),
+            DVec3::new(-3.0, 4.0, 1.0),
+            DVec3::new(10.0, -2.5, 0.5),
+            DVec3::new(-20.0, -30.0, -1.0),
+            DVec3::new(6.0, 4.0, 1.0),
+            DVec3::new(1.0, 0.2, 0.0),
+            DVec3::new(-0.1, -1.0, 0.0),
+            DVec3::ZERO,
+        ];
+        for hv in cases {
+            let e = Epipole { h: hv };
+            let k = OrderKey::new(w, h, &e);
+            let mut all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
+            all.sort_by_key(|&(x, y)| k.key(x, y));
+            assert_eq!(all, order(w, h, &e), "epipole {hv:?}");
         }
     }
 

@@ -14,7 +14,7 @@
 //!    `diff-NNNN.png`. Then `report.json`. All written atomically.
 
 use crate::golden::config::GoldenConfig;
-use crate::golden::frame::{GoldenFrame, PreparedReference, prepare_reference, warp_frame};
+use crate::golden::frame::{GoldenFrame, PreparedReference, Warper, prepare_reference};
 use crate::metrics::{MetricInput, Quality, evaluate};
 use crate::report::images::{write_diff_heatmap, write_hole_mask};
 use crate::report::{frame_entry, mean_entry, table};
@@ -67,6 +67,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
     let mut slopes = vec![Value::Null; trace.references.len()];
     let mut prepare_ms = 0.0;
     let mut frames = Vec::new();
+    let mut warper = Warper::new();
     let bar = crate::progress::bar(trace.derived.len() as u64, "golden");
     for (k, f) in trace.derived.iter().enumerate() {
         for &r in &f.references {
@@ -81,7 +82,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         let cmd = trace.frame_commands(k);
         let refs: Vec<&SampleImage> = f.references.iter().map(|r| &prepared[r].samples).collect();
         let t = Instant::now();
-        let frame = warp_frame(&cmd, &refs, cfg);
+        let frame = warper.warp_frame(&cmd, &refs, cfg);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
         let quality = match trace.load_truth(k)? {
             None => None,
