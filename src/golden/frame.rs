@@ -352,8 +352,8 @@ fn warp_reference(
     }
     // start[s] is now the end of bucket s.
     let mut begin = 0usize;
-    for s in 0..d.len() {
-        let end = start[s] as usize;
+    for (s, &end) in start[..d.len()].iter().enumerate() {
+        let end = end as usize;
         let bucket = &mut sorted[begin..end];
         begin = end;
         if bucket.len() > 1 {
