@@ -92,6 +92,21 @@ pub fn tolerance(
 
 /// Composite candidate `c` into sample `i`.
 pub fn composite(d: &mut DestPlanes, i: usize, c: &Candidate, slope_tol: f64, rel_tol: f64) -> Outcome {
+    composite_with(d, i, c, || c.better, slope_tol, rel_tol)
+}
+
+/// [`composite`] with the candidate's better-reference mask supplied on
+/// demand: rule 3 is the only reader, so a caller may compute the mask only
+/// when a candidate meets a stored sample from another reference within
+/// tolerance (`c.better` is then ignored).
+pub fn composite_with(
+    d: &mut DestPlanes,
+    i: usize,
+    c: &Candidate,
+    better: impl FnOnce() -> u32,
+    slope_tol: f64,
+    rel_tol: f64,
+) -> Outcome {
     let outcome = if !d.real[i] {
         Outcome::Filled
     } else {
@@ -104,7 +119,7 @@ pub fn composite(d: &mut DestPlanes, i: usize, c: &Candidate, slope_tol: f64, re
             Outcome::SplatRejected
         } else if c.kind == Kind::Mesh && d.splat[i] {
             Outcome::MeshOverSplat
-        } else if d.source[i] != c.source && c.better & (1 << d.source[i]) == 0 {
+        } else if d.source[i] != c.source && better() & (1 << d.source[i]) == 0 {
             Outcome::BetterWins
         } else {
             Outcome::Lost

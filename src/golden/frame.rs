@@ -23,7 +23,7 @@
 //!    are the same for both.
 
 use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
-use super::composite::{Candidate, Kind, Outcome, composite};
+use super::composite::{Candidate, Kind, Outcome, composite_with};
 use super::config::{GoldenConfig, Reconstruction, WarpOrder};
 use super::cull;
 use super::general;
@@ -200,10 +200,13 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
     st.hole_fill_unreached += hf.unreached;
 }
 
-/// A kernel ready to draw: its candidate and warp-order key.
+/// A kernel ready to draw: its candidate, warp-order key and reference
+/// sample; the better-reference mask is computed when first needed.
 struct Kernel {
     cand: Candidate,
     key: u64,
+    sample: (u32, u32),
+    better: std::cell::Cell<Option<u32>>,
 }
 
 /// Working buffers of one reference warp, kept across warps and frames so
@@ -321,14 +324,19 @@ fn warp_reference(
                 inv_z: t.inv_z as f32,
                 slopes: [slopes[0] as f32, slopes[1] as f32],
                 source,
-                better: ctx.better_mask(x as f64, y as f64, inv_z, img.inv_z_slopes[i]),
+                better: 0, // computed on demand in phase B
                 fill_colour,
                 kind: Kind::Mesh,
             };
             let key = keys.key(x, y);
             let k = kernels.len() as u32;
             r.for_each(|sx, sy| entries.push((sy * d.width + sx, k)));
-            kernels.push(Kernel { cand, key: if reverse { !key } else { key } });
+            kernels.push(Kernel {
+                cand,
+                key: if reverse { !key } else { key },
+                sample: (x, y),
+                better: std::cell::Cell::new(None),
+            });
         }
     }
 
@@ -360,7 +368,18 @@ fn warp_reference(
             bucket.sort_unstable_by_key(|&k| kernels[k as usize].key);
         }
         for &k in bucket.iter() {
-            count_outcome(st, composite(d, s, &kernels[k as usize].cand, cfg.slope_tol, cfg.rel_tol));
+            let kern = &kernels[k as usize];
+            let better = || match kern.better.get() {
+                Some(m) => m,
+                None => {
+                    let (x, y) = kern.sample;
+                    let i = img.index(x, y);
+                    let m = ctx.better_mask(x as f64, y as f64, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]);
+                    kern.better.set(Some(m));
+                    m
+                }
+            };
+            count_outcome(st, composite_with(d, s, &kern.cand, better, cfg.slope_tol, cfg.rel_tol));
         }
     }
 }

@@ -38,7 +38,9 @@ pub enum GroupState {
 
 /// Rule 1.
 pub fn same_surface(a: &Transformed, b: &Transformed, offset_len: f64, threshold: f64) -> bool {
-    (a.pos - b.pos).length() <= threshold * offset_len * 0.5 * (a.e + b.e)
+    // Compared squared: no square root per pair.
+    let limit = threshold * offset_len * 0.5 * (a.e + b.e);
+    (a.pos - b.pos).length_squared() <= limit * limit
 }
 
 fn cross(a: DVec2, b: DVec2) -> f64 {

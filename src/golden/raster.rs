@@ -14,10 +14,21 @@
 
 use super::config::OverLimit;
 
+/// `v.ceil()` as an integer, without a libm call on targets lacking a
+/// rounding instruction; exact for |v| < 2^52, saturating beyond.
+fn ceil_i64(v: f64) -> i64 {
+    if v.abs() < 4.5e15 {
+        let t = v as i64; // truncates toward zero
+        if (t as f64) < v { t + 1 } else { t }
+    } else {
+        v.ceil() as i64
+    }
+}
+
 /// Sample centres covered by `[lo, hi)` along one axis: `(first, last)`
 /// inclusive, empty when `first > last`.
 pub fn covered(lo: f64, hi: f64) -> (i64, i64) {
-    (lo.ceil() as i64, hi.ceil() as i64 - 1)
+    (ceil_i64(lo), ceil_i64(hi) - 1)
 }
 
 /// Clip an inclusive range of centres to `limit` around `centre`.
@@ -86,6 +97,15 @@ impl Rect {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fast_ceil_matches_ceil() {
+        for v in
+            [-2.5, -2.0, -1e-300, -0.0, 0.0, 1e-300, 0.5, 1.0, 1.0000001, 3.999999, 1e15 + 0.5, -1e18, 1e18, f64::NAN]
+        {
+            assert_eq!(ceil_i64(v), v.ceil() as i64, "{v}");
+        }
+    }
 
     #[test]
     fn half_open_coverage() {
