@@ -14,7 +14,7 @@
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use postwarp::golden::config::GoldenConfig;
-use postwarp::golden::frame::{Warper, prepare_reference};
+use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
 use postwarp::methods::forward_splat;
 use postwarp::path::predict::predict_pose;
 use postwarp::scene::Scene;
@@ -29,7 +29,7 @@ const FRAME: usize = 3;
 /// One derived frame's commands and its prepared references.
 struct Input {
     cmd: FrameCommands,
-    refs: Vec<SampleImage>,
+    refs: Vec<PreparedReference>,
 }
 
 /// Rebuild what `make-trace` writes for derived frame [`FRAME`] of `room`.
@@ -59,7 +59,7 @@ fn input() -> Input {
             for c in img.colour.iter_mut().flatten() {
                 *c = exr::prelude::f16::from_f32(*c).to_f32();
             }
-            prepare_reference(&img, ss, &cfg).samples
+            prepare_reference(&img, ss, &cfg)
         })
         .collect();
     Input { cmd, refs }
@@ -67,7 +67,9 @@ fn input() -> Input {
 
 fn bench(c: &mut Criterion) {
     let input = input();
-    let refs: Vec<&SampleImage> = input.refs.iter().collect();
+    let prepared: Vec<&PreparedReference> = input.refs.iter().collect();
+    // Both methods warp the same samples: the references after the A-buffer.
+    let refs: Vec<&SampleImage> = input.refs.iter().map(|p| &p.samples).collect();
     let valid: u64 = refs.iter().map(|r| r.valid.count_ones() as u64).sum();
     let cfg = GoldenConfig::default();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one-thread pool");
@@ -82,7 +84,9 @@ fn bench(c: &mut Criterion) {
     g.measurement_time(Duration::from_secs(20));
     // One warper reused across frames, as `postwarp golden` does.
     let mut warper = Warper::new();
-    g.bench_function("golden", |b| pool.install(|| b.iter(|| black_box(warper.warp_frame(&input.cmd, &refs, &cfg)))));
+    g.bench_function("golden", |b| {
+        pool.install(|| b.iter(|| black_box(warper.warp_frame(&input.cmd, &prepared, &cfg))))
+    });
     g.measurement_time(Duration::from_secs(5));
     g.bench_function("forward_splat", |b| pool.install(|| b.iter(|| black_box(forward_splat(&input.cmd, &refs)))));
     g.finish();

@@ -84,8 +84,8 @@ fn run(
 ) -> postwarp::golden::frame::GoldenFrame {
     let cams: Vec<(usize, Camera)> = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
     let cmd = FrameCommands::new(0, *derived, ss, &cams);
-    let prepared: Vec<SampleImage> = refs.iter().map(|(_, img)| prepare_reference(img, ss, cfg).samples).collect();
-    let r: Vec<&SampleImage> = prepared.iter().collect();
+    let prepared: Vec<_> = refs.iter().map(|(_, img)| prepare_reference(img, ss, cfg)).collect();
+    let r: Vec<_> = prepared.iter().collect();
     warp_frame(&cmd, &r, cfg)
 }
 

@@ -57,11 +57,29 @@ impl LiveBlocks {
     }
 }
 
-/// Decide which blocks of `img` can reach a `dw x dh` derived image.
-pub fn live_blocks(ctx: &WarpContext, img: &SampleImage, dw: u32, dh: u32) -> LiveBlocks {
+/// Per block of a reference frame: the range of 1/Z extrapolated half a
+/// sample along the slopes (a property of the reference alone, computed
+/// once when it is prepared).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BlockDepth {
+    /// Reference width (samples).
+    pub width: u32,
+    /// Reference height (samples).
+    pub height: u32,
+    /// Blocks per row.
+    pub bw: u32,
+    /// Blocks per column.
+    pub bh: u32,
+    /// Smallest extrapolated 1/Z per block (+∞: no surface).
+    pub lo: Vec<f64>,
+    /// Largest extrapolated 1/Z per block (−∞: no surface).
+    pub hi: Vec<f64>,
+}
+
+/// The depth ranges of `img`'s blocks.
+pub fn block_depth(img: &SampleImage) -> BlockDepth {
     let (w, h) = (img.width, img.height);
     let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
-    // Per block: range of 1/Z extrapolated half a sample along the slopes.
     let mut lo = vec![f64::INFINITY; (bw * bh) as usize];
     let mut hi = vec![f64::NEG_INFINITY; (bw * bh) as usize];
     for y in 0..h {
@@ -79,6 +97,14 @@ pub fn live_blocks(ctx: &WarpContext, img: &SampleImage, dw: u32, dh: u32) -> Li
             hi[b] = hi[b].max(iz + r);
         }
     }
+    BlockDepth { width: w, height: h, bw, bh, lo, hi }
+}
+
+/// Decide which blocks of a reference with block depths `depth` can reach a
+/// `dw x dh` derived image.
+pub fn live_blocks(ctx: &WarpContext, depth: &BlockDepth, dw: u32, dh: u32) -> LiveBlocks {
+    let BlockDepth { width: w, height: h, bw, bh, lo, hi } = depth;
+    let (w, h, bw, bh) = (*w, *h, *bw, *bh);
     let margin = 1e-3;
     let mut live = vec![false; (bw * bh) as usize];
     for by in 0..bh {

@@ -130,6 +130,8 @@ pub struct PreparedReference {
     pub samples: SampleImage,
     /// A-buffer counters of the conversion.
     pub abuffer: AbufferStats,
+    /// Per-block depth ranges for off-screen culling.
+    pub blocks: cull::BlockDepth,
 }
 
 fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
@@ -140,19 +142,20 @@ fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
 pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
     let mut abuffer = AbufferStats::default();
     let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
-    PreparedReference { samples, abuffer }
+    let blocks = cull::block_depth(&samples);
+    PreparedReference { samples, abuffer, blocks }
 }
 
 /// Produce derived frame `cmd` from its prepared references (`refs[j]` for
 /// `cmd.warps[j]`). Allocates its buffers: use [`Warper::warp_frame`] in a loop.
-pub fn warp_frame(cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig) -> GoldenFrame {
+pub fn warp_frame(cmd: &FrameCommands, refs: &[&PreparedReference], cfg: &GoldenConfig) -> GoldenFrame {
     Warper::new().warp_frame(cmd, refs, cfg)
 }
 
 impl Warper {
     /// Produce derived frame `cmd` from its prepared references (`refs[j]`
     /// for `cmd.warps[j]`).
-    pub fn warp_frame(&mut self, cmd: &FrameCommands, refs: &[&SampleImage], cfg: &GoldenConfig) -> GoldenFrame {
+    pub fn warp_frame(&mut self, cmd: &FrameCommands, refs: &[&PreparedReference], cfg: &GoldenConfig) -> GoldenFrame {
         let ss = cmd.supersample;
         let dst = cmd.derived_camera.sample_grid(ss);
         let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
@@ -160,11 +163,14 @@ impl Warper {
             GoldenStats { kernel_sizes: vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1], ..Default::default() };
         let mut ab = AbufferStats::default();
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
-        for (j, (warp, img)) in cmd.warps.iter().zip(refs).enumerate() {
+        for (j, (warp, prepared)) in cmd.warps.iter().zip(refs).enumerate() {
+            let img = &prepared.samples;
             let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
             d.begin_warp();
             match cfg.reconstruction {
-                Reconstruction::AaRect => warp_reference(&ctx, img, j as u8, cfg, &mut d, &mut st, &mut self.scratch),
+                Reconstruction::AaRect => {
+                    warp_reference(&ctx, prepared, j as u8, cfg, &mut d, &mut st, &mut self.scratch)
+                }
                 Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
             }
             if cfg.hole_fill {
@@ -238,7 +244,7 @@ impl Warper {
 /// Warp one reference into `d` (rules 2, 4 and 5).
 fn warp_reference(
     ctx: &WarpContext,
-    img: &SampleImage,
+    prepared: &PreparedReference,
     source: u8,
     cfg: &GoldenConfig,
     d: &mut DestPlanes,
@@ -246,9 +252,10 @@ fn warp_reference(
     scratch: &mut Scratch,
 ) {
     let Scratch { warped, groups, kernels, entries, start, sorted } = scratch;
+    let img = &prepared.samples;
     let (w, h) = (img.width, img.height);
     st.reference_samples += img.valid.count_ones() as u64;
-    let live = cull::live_blocks(ctx, img, d.width, d.height);
+    let live = cull::live_blocks(ctx, &prepared.blocks, d.width, d.height);
     let Some((rx0, ry0, rx1, ry1)) = live.bounds(w, h) else { return };
     // The live region plus its one-sample ring (neighbours of live samples).
     let (qx0, qy0) = (rx0.saturating_sub(1), ry0.saturating_sub(1));

@@ -172,16 +172,22 @@ impl WarpContext {
         let b = k.fy * slopes[1] as f64;
         let c0 = inv_z - a * xn - b * yn;
         let r = self.rot_src;
-        let n = (r * DVec3::new(a, b, c0)).normalize_or_zero();
-        if n == DVec3::ZERO {
+        let n = r * DVec3::new(a, b, c0);
+        if n == DVec3::ZERO || !n.is_finite() {
             return 0;
         }
         let p = self.src.pose.position + r * DVec3::new(xn, yn, 1.0) / inv_z;
-        let cos = |c: DVec3| n.dot((c - p).normalize_or_zero()).abs();
-        let own = cos(self.centres[self.this]);
+        // |cos_j| > |cos_own|·(1 + margin), squared and cross-multiplied so
+        // that neither the normal nor the view rays need normalising:
+        // (n·v_j)²·|v_own|² > (n·v_own)²·|v_j|²·(1 + margin)².
+        let v_own = self.centres[self.this] - p;
+        let (dot_own, len_own) = (n.dot(v_own), v_own.length_squared());
+        let m = (1.0 + self.better_margin) * (1.0 + self.better_margin);
         let mut mask = 0;
         for (j, &c) in self.centres.iter().enumerate() {
-            if j != self.this && cos(c) > own * (1.0 + self.better_margin) {
+            let v = c - p;
+            let dot = n.dot(v);
+            if j != self.this && dot * dot * len_own > dot_own * dot_own * v.length_squared() * m {
                 mask |= 1 << j;
             }
         }

@@ -80,7 +80,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
             }
         }
         let cmd = trace.frame_commands(k);
-        let refs: Vec<&SampleImage> = f.references.iter().map(|r| &prepared[r].samples).collect();
+        let refs: Vec<&PreparedReference> = f.references.iter().map(|r| &prepared[r]).collect();
         let t = Instant::now();
         let frame = warper.warp_frame(&cmd, &refs, cfg);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
