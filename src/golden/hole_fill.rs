@@ -25,7 +25,7 @@
 //! by the derived image size, whatever the scene.
 
 use super::planes::DestPlanes;
-use super::traversal::{Major, sheets};
+use super::traversal::{Major, visit};
 use bitvec::vec::BitVec;
 use postwarp_rtl::camera::Epipole;
 
@@ -56,12 +56,12 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
     let (w, h) = (d.width as i64, d.height as i64);
     let mut visited: BitVec = BitVec::repeat(false, d.len());
     let mut st = HoleFillStats::default();
-    for sheet in sheets(d.width, d.height, e) {
-        for &(x, y) in &sheet.samples {
+    visit(d.width, d.height, e, |sheet, x, y| {
+        {
             let i = (y as i64 * w + x as i64) as usize;
             visited.set(i, true);
             if d.fill_valid[i] {
-                continue;
+                return;
             }
             // Tap at offset `k` along the line, one line back.
             let tap = |k: i64| -> Option<usize> {
@@ -78,7 +78,7 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
             let near: Vec<usize> = [-1, 0, 1].into_iter().filter_map(tap).collect();
             if near.is_empty() {
                 st.unreached += 1;
-                continue;
+                return;
             }
             let dist = (1 + near.iter().map(|&j| d.fill_distance[j] as u32).min().unwrap_or(0)).min(p.max_distance);
             let mut taps = near;
@@ -113,7 +113,7 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
                 d.hole.set(i, true);
             }
         }
-    }
+    });
     st
 }
 

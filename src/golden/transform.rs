@@ -152,16 +152,30 @@ impl WarpContext {
         if det.is_finite() { det } else { f64::INFINITY }
     }
 
-    /// Derived-image slopes of 1/Z (rule 3).
+    /// Derived-image slopes of 1/Z (rule 3). With `J = M/W` and the
+    /// reference-space gradient `g = G/(W²·s2)`, `J⁻ᵀ·g = M⁻ᵀ·G/(W·s2)`,
+    /// solved by Cramer's rule with a single division.
     pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
-        let (j, g) = self.local(x, y, inv_z, slopes);
-        let det = j.determinant();
-        if !det.is_finite() || det.abs() < 1e-12 {
+        let s = &self.setup;
+        let d = s.s1 * inv_z;
+        let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
+        let n = s.h * DVec3::new(x, y, 1.0) + s.e_hat * d;
+        let nx = s.h.x_axis + s.e_hat * dx;
+        let ny = s.h.y_axis + s.e_hat * dy;
+        let w = n.z;
+        let inv_w = 1.0 / w;
+        let (xp, yp) = (n.x * inv_w, n.y * inv_w);
+        let (m00, m01) = (nx.x - xp * nx.z, ny.x - xp * ny.z);
+        let (m10, m11) = (nx.y - yp * nx.z, ny.y - yp * ny.z);
+        let (gx, gy) = (dx * w - d * nx.z, dy * w - d * ny.z);
+        let det = m00 * m11 - m01 * m10;
+        // |det J| = |det M|/W² below 1e-12: singular (edge-on), no slopes.
+        if !det.is_finite() || det.abs() < 1e-12 * w * w {
             return [0.0, 0.0];
         }
-        // J maps reference steps to derived steps; ∇ref = Jᵀ·∇dst.
-        let v = j.transpose().inverse() * g;
-        if v.is_finite() { [v.x, v.y] } else { [0.0, 0.0] }
+        let k = 1.0 / (det * w * s.s2);
+        let v = [(gx * m11 - m10 * gy) * k, (m00 * gy - m01 * gx) * k];
+        if v[0].is_finite() && v[1].is_finite() { v } else { [0.0, 0.0] }
     }
 
     /// Better-reference bit-mask (rule 4).

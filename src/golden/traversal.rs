@@ -54,15 +54,50 @@ pub struct Sheet {
     pub samples: Vec<(u32, u32)>,
 }
 
+/// A sheet's scan pattern.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SheetInfo {
+    /// Scan axis.
+    pub major: Major,
+    /// Step between successive lines: +1 or −1.
+    pub line_step: i32,
+    /// Step within a line: +1 or −1.
+    pub step: i32,
+}
+
+/// Visit every sample of a `width x height` image in the forward
+/// occlusion-compatible order for `epipole`, with the scan pattern of the
+/// sheet it belongs to. Allocates nothing.
+pub fn visit(width: u32, height: u32, epipole: &Epipole, mut f: impl FnMut(&SheetInfo, u32, u32)) {
+    match epipole.kind() {
+        EpipoleKind::Coincident => scan(&info(single_scan(DVec2::new(0.0, 1.0))), width, height, &mut f),
+        EpipoleKind::Infinity { .. } => {
+            scan(&info(single_scan(DVec2::new(epipole.h.x, epipole.h.y))), width, height, &mut f)
+        }
+        EpipoleKind::Front { point } => octants(width, height, point, 1.0, &mut f),
+        EpipoleKind::Behind { point } => octants(width, height, point, -1.0, &mut f),
+    }
+}
+
+fn info((major, line_step, step): (Major, i32, i32)) -> SheetInfo {
+    SheetInfo { major, line_step, step }
+}
+
 /// The forward occlusion-compatible order of a `width x height` image for
 /// `epipole` (in that image's sample coordinates), as a list of sheets.
 pub fn sheets(width: u32, height: u32, epipole: &Epipole) -> Vec<Sheet> {
-    match epipole.kind() {
-        EpipoleKind::Coincident => vec![single(width, height, DVec2::new(0.0, 1.0))],
-        EpipoleKind::Infinity { .. } => vec![single(width, height, DVec2::new(epipole.h.x, epipole.h.y))],
-        EpipoleKind::Front { point } => octants(width, height, point, 1.0),
-        EpipoleKind::Behind { point } => octants(width, height, point, -1.0),
-    }
+    let mut out: Vec<Sheet> = Vec::new();
+    let mut current: Option<SheetInfo> = None;
+    visit(width, height, epipole, |s, x, y| {
+        // Distinct octants have distinct scan patterns, so a change of
+        // pattern is a change of sheet.
+        if current != Some(*s) {
+            out.push(Sheet { major: s.major, line_step: s.line_step, step: s.step, samples: Vec::new() });
+            current = Some(*s);
+        }
+        out.last_mut().expect("pushed").samples.push((x, y));
+    });
+    out
 }
 
 /// The forward order as one flat list.
@@ -78,31 +113,19 @@ fn single_scan(d: DVec2) -> (Major, i32, i32) {
     if d.y.abs() >= d.x.abs() { (Major::Row, sign(d.y), sign(d.x)) } else { (Major::Column, sign(d.x), sign(d.y)) }
 }
 
-fn single(width: u32, height: u32, d: DVec2) -> Sheet {
-    let (major, line_step, step) = single_scan(d);
-    let mut s = Sheet { major, line_step, step, samples: Vec::with_capacity(width as usize * height as usize) };
-    scan(&mut s, width, height, |_, _| true);
-    s
-}
-
-/// Visit every sample of the sheet's scan pattern over the image for which
-/// `member` holds.
-fn scan(s: &mut Sheet, width: u32, height: u32, member: impl Fn(u32, u32) -> bool) {
+/// Visit every sample of a whole-image sheet.
+fn scan(s: &SheetInfo, width: u32, height: u32, f: &mut impl FnMut(&SheetInfo, u32, u32)) {
     let (lines, len) = match s.major {
         Major::Row => (height, width),
         Major::Column => (width, height),
     };
-    let ordered = |n: u32, step: i32| -> Box<dyn Iterator<Item = u32>> {
-        if step > 0 { Box::new(0..n) } else { Box::new((0..n).rev()) }
-    };
-    for l in ordered(lines, s.line_step) {
-        for i in ordered(len, s.step) {
-            let (x, y) = match s.major {
-                Major::Row => (i, l),
-                Major::Column => (l, i),
-            };
-            if member(x, y) {
-                s.samples.push((x, y));
+    for k in 0..lines {
+        let l = if s.line_step > 0 { k } else { lines - 1 - k };
+        for m in 0..len {
+            let i = if s.step > 0 { m } else { len - 1 - m };
+            match s.major {
+                Major::Row => f(s, i, l),
+                Major::Column => f(s, l, i),
             }
         }
     }
@@ -135,30 +158,29 @@ fn octant_scan((vertical, right, below): (bool, bool, bool), ew_sign: f64) -> (M
     if vertical { (Major::Row, sign(dy_sign), sign(dx_sign)) } else { (Major::Column, sign(dx_sign), sign(dy_sign)) }
 }
 
-fn octants(width: u32, height: u32, e: DVec2, ew_sign: f64) -> Vec<Sheet> {
-    let mut out = Vec::new();
+fn octants(width: u32, height: u32, e: DVec2, ew_sign: f64, f: &mut impl FnMut(&SheetInfo, u32, u32)) {
     for oct in OCTANTS {
-        let (major, line_step, step) = octant_scan(oct, ew_sign);
-        let mut s = Sheet { major, line_step, step, samples: Vec::new() };
-        scan_octant(&mut s, width, height, e, oct);
-        if !s.samples.is_empty() {
-            out.push(s);
-        }
+        scan_octant(&info(octant_scan(oct, ew_sign)), width, height, e, oct, f);
     }
-    out
 }
 
 /// Scan only the candidate band of each line that can hold octant samples
 /// (|offset along the line| ≤ |distance of the line from e|, plus one sample
 /// of margin), checking membership exactly with [`octant_of`].
-fn scan_octant(s: &mut Sheet, width: u32, height: u32, e: DVec2, which: (bool, bool, bool)) {
+fn scan_octant(
+    s: &SheetInfo,
+    width: u32,
+    height: u32,
+    e: DVec2,
+    which: (bool, bool, bool),
+    f: &mut impl FnMut(&SheetInfo, u32, u32),
+) {
     let (lines, len, el, ei) = match s.major {
         Major::Row => (height, width, e.y, e.x),
         Major::Column => (width, height, e.x, e.y),
     };
-    let line_iter: Box<dyn Iterator<Item = u32>> =
-        if s.line_step > 0 { Box::new(0..lines) } else { Box::new((0..lines).rev()) };
-    for l in line_iter {
+    for k in 0..lines {
+        let l = if s.line_step > 0 { k } else { lines - 1 - k };
         let reach = (l as f64 - el).abs();
         let lo = (ei - reach - 1.0).floor().max(0.0);
         let hi = (ei + reach + 1.0).ceil().min(len as f64 - 1.0);
@@ -166,19 +188,15 @@ fn scan_octant(s: &mut Sheet, width: u32, height: u32, e: DVec2, which: (bool, b
             continue;
         }
         let (lo, hi) = (lo as u32, hi as u32);
-        let mut push = |i: u32| {
+        for m in 0..=(hi - lo) {
+            let i = if s.step > 0 { lo + m } else { hi - m };
             let (x, y) = match s.major {
                 Major::Row => (i, l),
                 Major::Column => (l, i),
             };
             if octant_of(x, y, e) == which {
-                s.samples.push((x, y));
+                f(s, x, y);
             }
-        };
-        if s.step > 0 {
-            (lo..=hi).for_each(&mut push);
-        } else {
-            (lo..=hi).rev().for_each(&mut push);
         }
     }
 }
