@@ -212,8 +212,12 @@ struct Kernel {
     cand: Candidate,
     key: u64,
     sample: (u32, u32),
-    better: std::cell::Cell<Option<u32>>,
+    /// Better-reference mask once computed ([`UNKNOWN`] before).
+    better: std::cell::Cell<u32>,
 }
+
+/// Marks a better-reference mask not yet computed (masks use bits 0–7).
+const UNKNOWN: u32 = u32::MAX;
 
 /// Working buffers of one reference warp, kept across warps and frames so
 /// that a run does not page-fault fresh memory for every warp.
@@ -342,7 +346,7 @@ fn warp_reference(
                 cand,
                 key: if reverse { !key } else { key },
                 sample: (x, y),
-                better: std::cell::Cell::new(None),
+                better: std::cell::Cell::new(UNKNOWN),
             });
         }
     }
@@ -377,14 +381,14 @@ fn warp_reference(
         for &k in bucket.iter() {
             let kern = &kernels[k as usize];
             let better = || match kern.better.get() {
-                Some(m) => m,
-                None => {
+                UNKNOWN => {
                     let (x, y) = kern.sample;
                     let i = img.index(x, y);
                     let m = ctx.better_mask(x as f64, y as f64, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]);
-                    kern.better.set(Some(m));
+                    kern.better.set(m);
                     m
                 }
+                m => m,
             };
             count_outcome(st, composite_with(d, s, &kern.cand, better, cfg.slope_tol, cfg.rel_tol));
         }

@@ -60,9 +60,11 @@ pub struct WarpContext {
     pub this: usize,
     /// Margin of the better-reference test (fraction).
     pub better_margin: f64,
-    /// Focal lengths (geometric mean) of the reference and derived sample grids.
-    focal_src: f64,
-    focal_dst: f64,
+    /// Focal-length ratio (geometric means) derived / reference sample grid.
+    focal_ratio: f64,
+    /// Reciprocal focal lengths of the reference and derived sample grids.
+    inv_f_src: (f64, f64),
+    inv_f_dst: (f64, f64),
     /// Reference camera-to-world rotation as a matrix.
     rot_src: DMat3,
 }
@@ -71,9 +73,11 @@ fn focal(c: &Camera) -> f64 {
     (c.intrinsics.fx * c.intrinsics.fy).sqrt()
 }
 
-fn ray_len(c: &Camera, x: f64, y: f64) -> f64 {
-    let k = &c.intrinsics;
-    DVec3::new((x - k.cx) / k.fx, (y - k.cy) / k.fy, 1.0).length()
+/// Squared length of the ray `((x−cx)/fx, (y−cy)/fy, 1)` from offsets to
+/// the principal point and reciprocal focal lengths.
+fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
+    let (a, b) = (dx * inv_f.0, dy * inv_f.1);
+    a * a + b * b + 1.0
 }
 
 impl WarpContext {
@@ -94,8 +98,9 @@ impl WarpContext {
             centres,
             this,
             better_margin,
-            focal_src: focal(&src),
-            focal_dst: focal(&dst),
+            focal_ratio: focal(&dst) / focal(&src),
+            inv_f_src: (1.0 / src.intrinsics.fx, 1.0 / src.intrinsics.fy),
+            inv_f_dst: (1.0 / dst.intrinsics.fx, 1.0 / dst.intrinsics.fy),
             rot_src: src.pose.rotation(),
         }
     }
@@ -107,8 +112,10 @@ impl WarpContext {
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
             return None;
         }
-        let e = ray_len(&self.src, x, y) * self.focal_dst
-            / (w.w * ray_len(&self.dst, w.position.x, w.position.y) * self.focal_src);
+        let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
+        let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
+        let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
+        let e = (r1 / r2).sqrt() * self.focal_ratio / w.w;
         Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
     }
 

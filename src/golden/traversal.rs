@@ -164,9 +164,10 @@ fn octants(width: u32, height: u32, e: DVec2, ew_sign: f64, f: &mut impl FnMut(&
     }
 }
 
-/// Scan only the candidate band of each line that can hold octant samples
-/// (|offset along the line| ≤ |distance of the line from e|, plus one sample
-/// of margin), checking membership exactly with [`octant_of`].
+/// Scan one octant. On each line its samples form one interval: computed
+/// from the octant's inequalities, then its ends corrected with the exact
+/// membership test [`octant_of`] (so rounding of the epipole can never add
+/// or drop a sample), and visited without further tests.
 fn scan_octant(
     s: &SheetInfo,
     width: u32,
@@ -179,24 +180,52 @@ fn scan_octant(
         Major::Row => (height, width, e.y, e.x),
         Major::Column => (width, height, e.x, e.y),
     };
+    let at = |l: u32, i: u32| match s.major {
+        Major::Row => (i, l),
+        Major::Column => (l, i),
+    };
+    let member = |l: u32, i: i64| {
+        if i < 0 || i >= len as i64 {
+            return false;
+        }
+        let (x, y) = at(l, i as u32);
+        octant_of(x, y, e) == which
+    };
     for k in 0..lines {
         let l = if s.line_step > 0 { k } else { lines - 1 - k };
-        let reach = (l as f64 - el).abs();
-        let lo = (ei - reach - 1.0).floor().max(0.0);
-        let hi = (ei + reach + 1.0).ceil().min(len as f64 - 1.0);
+        // The octant's inequalities: the line must be on the octant's side
+        // of e; along it, the samples lie between e and |d_line| away (on
+        // the octant's side). One sample of slack each way, then the exact
+        // test trims the ends.
+        let d_line = l as f64 - el;
+        let (line_side, along_side) = match s.major {
+            Major::Row => (which.2, which.1),
+            Major::Column => (which.1, which.2),
+        };
+        if (d_line >= 0.0) != line_side {
+            continue;
+        }
+        let r = d_line.abs();
+        let (a, b) = if along_side { (ei, ei + r) } else { (ei - r, ei) };
+        let lo = (a.floor() - 1.0).max(0.0);
+        let hi = (b.ceil() + 1.0).min(len as f64 - 1.0);
         if lo > hi {
             continue;
         }
-        let (lo, hi) = (lo as u32, hi as u32);
-        for m in 0..=(hi - lo) {
-            let i = if s.step > 0 { lo + m } else { hi - m };
-            let (x, y) = match s.major {
-                Major::Row => (i, l),
-                Major::Column => (l, i),
-            };
-            if octant_of(x, y, e) == which {
-                f(s, x, y);
-            }
+        let (mut lo, mut hi) = (lo as i64, hi as i64);
+        while lo <= hi && !member(l, lo) {
+            lo += 1;
+        }
+        while hi >= lo && !member(l, hi) {
+            hi -= 1;
+        }
+        if lo > hi {
+            continue;
+        }
+        for m in 0..=(hi - lo) as u32 {
+            let i = if s.step > 0 { lo as u32 + m } else { hi as u32 - m };
+            let (x, y) = at(l, i);
+            f(s, x, y);
         }
     }
 }
@@ -231,8 +260,9 @@ impl OrderKey {
         let sheet = match self.point {
             None => 0,
             Some(e) => {
-                let o = octant_of(x, y, e);
-                OCTANTS.iter().position(|&c| c == o).unwrap_or(0)
+                // Index in OCTANTS: vertical first, then right, then below.
+                let (v, r, b) = octant_of(x, y, e);
+                ((!v as usize) << 2) | ((!r as usize) << 1) | (!b as usize)
             }
         };
         let (major, line_step, step) = self.scans[sheet];
