@@ -121,27 +121,18 @@ const MAX_SS2: usize = 16;
 /// A fragment being built: fragment, colour sum, weight sum, sample count.
 type Building = (Fragment, [f64; 3], f64, u32);
 
-/// Fragments of one pixel, at most [`MAX_SS2`].
-#[derive(Clone, Copy)]
-pub struct PixelFragments {
-    frags: [Fragment; MAX_SS2],
-    len: usize,
+/// Working buffers of [`compress_pixel`], reused from pixel to pixel.
+#[derive(Default)]
+struct PixelScratch {
+    building: Vec<Building>,
+    out: Vec<Fragment>,
 }
 
-impl PixelFragments {
-    /// The fragments.
-    pub fn as_slice(&self) -> &[Fragment] {
-        &self.frags[..self.len]
-    }
-}
-
-const EMPTY: Fragment =
-    Fragment { colour: [0.0; 3], inv_z: 0.0, slopes: [0.0; 2], mask: 0, real: false, key: 0, weight: 0.0 };
-
-/// Group one pixel's samples into fragments (rules 1–3).
-fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut AbufferStats) -> PixelFragments {
+/// Group one pixel's samples into fragments (rules 1–3), into `sc.out`.
+fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut AbufferStats, sc: &mut PixelScratch) {
     let ss = p.ss;
-    let mut frags: [Building; MAX_SS2] = [(EMPTY, [0.0; 3], 0.0, 0); MAX_SS2];
+    let frags = &mut sc.building;
+    frags.clear();
     let mut n = 0usize;
     for (k, s) in samples.iter().enumerate() {
         let Some(s) = s else { continue };
@@ -161,7 +152,7 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
             Some(i) => i,
             None => {
                 let inv_z_c = if s.real { s.inv_z - s.slopes[0] * ox - s.slopes[1] * oy } else { 0.0 };
-                frags[n] = (
+                frags.push((
                     Fragment {
                         colour: [0.0; 3],
                         inv_z: inv_z_c,
@@ -174,7 +165,7 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
                     [0.0; 3],
                     0.0,
                     0,
-                );
+                ));
                 n += 1;
                 n - 1
             }
@@ -200,8 +191,7 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
             }
         }
         let (i, j) = (best.3, best.4);
-        let b = frags[j];
-        frags.copy_within(j + 1..n, j);
+        let b = frags.remove(j);
         n -= 1;
         let a = &mut frags[i];
         let dominant_b = b.3 > a.3 || (b.3 == a.3 && b.0.inv_z > a.0.inv_z);
@@ -219,12 +209,11 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
         a.3 += b.3;
         stats.forced_merges += 1;
     }
-    let mut out = PixelFragments { frags: [EMPTY; MAX_SS2], len: n };
-    for (o, (f, sum, wsum, cnt)) in out.frags.iter_mut().zip(&frags[..n]) {
+    sc.out.clear();
+    for (f, sum, wsum, cnt) in &frags[..n] {
         let cnt = *cnt as f64;
-        *o = Fragment { colour: sum.map(|c| (c / cnt) as f32), weight: (wsum / cnt) as f32, ..*f };
+        sc.out.push(Fragment { colour: sum.map(|c| (c / cnt) as f32), weight: (wsum / cnt) as f32, ..*f });
     }
-    out
 }
 
 fn for_each_pixel(width: u32, height: u32, ss: u32, mut f: impl FnMut(u32, u32, &[usize])) {
@@ -251,6 +240,7 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
     }
     let mut out = SampleImage::empty(img.width, img.height);
     let mut views = Vec::with_capacity((p.ss * p.ss) as usize);
+    let mut sc = PixelScratch::default();
     for_each_pixel(img.width, img.height, p.ss, |_, _, idx| {
         views.clear();
         views.extend(idx.iter().map(|&i| {
@@ -263,8 +253,8 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
                 weight: 0.0,
             })
         }));
-        let frags = compress_pixel(&views, p, stats);
-        for f in frags.as_slice() {
+        compress_pixel(&views, p, stats, &mut sc);
+        for f in &sc.out {
             for (k, &i) in idx.iter().enumerate() {
                 if f.mask & (1 << k) != 0 {
                     let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
@@ -298,6 +288,7 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
     let w = d.width as usize;
     let mut views = [None; MAX_SS2];
     let mut idx = [0usize; MAX_SS2];
+    let mut sc = PixelScratch::default();
     for py in 0..d.height as usize / ss {
         for px in 0..w / ss {
             for j in 0..ss {
@@ -315,11 +306,11 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
                     });
                 }
             }
-            let frags = compress_pixel(&views[..ss * ss], p, stats);
+            compress_pixel(&views[..ss * ss], p, stats, &mut sc);
             // Pixels do not overlap: write this one back at once.
             for (k, &i) in idx[..ss * ss].iter().enumerate() {
                 let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
-                match frags.as_slice().iter().find(|f| f.mask & (1 << k) != 0) {
+                match sc.out.iter().find(|f| f.mask & (1 << k) != 0) {
                     None => {
                         d.real.set(i, false);
                         d.hole.set(i, false);
@@ -367,7 +358,9 @@ pub fn compress_reference_pixel(img: &SampleImage, px: u32, py: u32, p: &Abuffer
             }));
         }
     }
-    compress_pixel(&views, p, &mut AbufferStats::default()).as_slice().to_vec()
+    let mut sc = PixelScratch::default();
+    compress_pixel(&views, p, &mut AbufferStats::default(), &mut sc);
+    sc.out
 }
 
 /// Valid-sample mask of a reference pixel (bit `j·ss + i`).

@@ -132,6 +132,8 @@ pub struct PreparedReference {
     pub abuffer: AbufferStats,
     /// Per-block depth ranges for off-screen culling.
     pub blocks: cull::BlockDepth,
+    /// `1/Z` of every sample (0 where there is no surface), computed once.
+    pub inv_z: Vec<f64>,
 }
 
 fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
@@ -143,7 +145,8 @@ pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> Prep
     let mut abuffer = AbufferStats::default();
     let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
     let blocks = cull::block_depth(&samples);
-    PreparedReference { samples, abuffer, blocks }
+    let inv_z = (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
+    PreparedReference { samples, abuffer, blocks, inv_z }
 }
 
 /// Produce derived frame `cmd` from its prepared references (`refs[j]` for
@@ -271,7 +274,7 @@ fn warp_reference(
     for y in qy0..=qy1 {
         for x in qx0..=qx1 {
             let i = img.index(x, y);
-            let t = if img.valid[i] { ctx.transform(x as f64, y as f64, 1.0 / img.z[i] as f64) } else { None };
+            let t = if img.valid[i] { ctx.transform(x as f64, y as f64, prepared.inv_z[i]) } else { None };
             st.culled_samples += (img.valid[i] && t.is_none()) as u64;
             warped.push(t);
         }
@@ -321,7 +324,7 @@ fn warp_reference(
                 }
             }
             let i = img.index(x, y);
-            let inv_z = 1.0 / img.z[i] as f64;
+            let inv_z = prepared.inv_z[i];
             let slopes = ctx.dest_slopes(x as f64, y as f64, inv_z, img.inv_z_slopes[i]);
             let fill_colour = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
                 Some(k) => {
@@ -384,7 +387,7 @@ fn warp_reference(
                 UNKNOWN => {
                     let (x, y) = kern.sample;
                     let i = img.index(x, y);
-                    let m = ctx.better_mask(x as f64, y as f64, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]);
+                    let m = ctx.better_mask(x as f64, y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
                     kern.better.set(m);
                     m
                 }

@@ -115,7 +115,7 @@ impl WarpContext {
         let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
         let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
         let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
-        let e = (r1 / r2).sqrt() * self.focal_ratio / w.w;
+        let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
         Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
     }
 
