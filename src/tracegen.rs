@@ -223,7 +223,7 @@ mod tests {
         let d = s.display_intrinsics();
         assert!((d.fx - 554.256).abs() < 1e-3, "{}", d.fx);
         let r = s.reference_intrinsics().unwrap();
-        // warper-reference.md: 68°x88° references ≈ 1071x745 for a 640x480 display.
+        // docs/warper-reference.md: 68°x88° references ≈ 1071x745 for a 640x480 display.
         assert_eq!((r.width, r.height), (1070, 748));
     }
 

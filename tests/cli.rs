@@ -17,7 +17,7 @@ fn ok(args: &[&str]) -> String {
 #[test]
 fn every_subcommand_has_help() {
     let top = ok(&["--help"]);
-    for sub in ["info", "make-trace", "import-middlebury"] {
+    for sub in ["info", "make-trace", "import-middlebury", "golden"] {
         assert!(top.contains(sub), "{sub} missing from --help");
         let h = ok(&[sub, "--help"]);
         assert!(h.len() > 200, "{sub} --help too short: {h}");

@@ -109,6 +109,21 @@ fn derived_frame_at_the_reference_camera_reproduces_it_exactly() {
 }
 
 #[test]
+fn without_the_abuffer_the_identity_warp_returns_the_original_samples() {
+    // With the A-buffer on, per-sample texture inside one surface fragment is
+    // averaged (by design, as in TR98's test-bed); without it, every sample
+    // comes back exactly.
+    let cfg = GoldenConfig { abuffer_fragments: 0, ..GoldenConfig::default() };
+    let cam = camera(24, 16, 0.0);
+    let img = render(&cam, 2, &[background(), Layer { z: 5.0, x0: -0.3, x1: 0.2, colour: red }]);
+    let out = run(&cam, &[(cam, img.clone())], 2, &cfg);
+    assert_eq!(out.samples.colour, img.colour);
+    for i in 0..img.len() {
+        assert_eq!(1.0 / out.samples.inv_z[i], img.z[i], "sample {i}: depth");
+    }
+}
+
+#[test]
 fn a_translated_plane_lands_where_the_equation_says() {
     // f = 50 px at 2x2 → 100 samples; Z = 10, B = 0.2 → shift 100·0.2/10 = 2 samples left.
     let cfg = GoldenConfig { hole_fill: false, ..GoldenConfig::default() };

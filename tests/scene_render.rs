@@ -2,9 +2,9 @@
 //! planes, object ids, determinism (also across thread counts), misses,
 //! bundled meshes, the built-in scenes and error messages.
 //!
-//! Two `#[ignore]`d helpers: `write_scene_previews` renders the built-in
-//! scenes to `docs/img/scene-<name>.png`, `time_room_render` prints the time
-//! of a 536x374-sample render of `room` (run both with `--release`).
+//! One `#[ignore]`d helper, `write_scene_previews`, renders the built-in
+//! scenes to `docs/img/scene-<name>.png` (`cargo test --test scene_render --
+//! --ignored write_scene_previews`).
 
 use glam::{DQuat, DVec3};
 use postwarp::scene::Scene;
@@ -407,25 +407,6 @@ fn write_scene_previews() {
             100.0 * img.valid.count_ones() as f64 / img.len() as f64
         );
     }
-}
-
-/// Time a 536x374-sample render of `room` (268x187 pixels at ss = 2).
-#[test]
-#[ignore]
-fn time_room_render() {
-    let t0 = std::time::Instant::now();
-    let s = Scene::builtin("room").unwrap();
-    let load = t0.elapsed();
-    let w = &s.spline.waypoints[0];
-    let cam = camera(268, 187, 60.0, w.position, w.look_at);
-    let _ = s.render(&cam, 2);
-    let t1 = std::time::Instant::now();
-    let runs = 5;
-    for _ in 0..runs {
-        std::hint::black_box(s.render(&cam, 2));
-    }
-    let per = t1.elapsed() / runs;
-    println!("room: load {load:?}, render 536x374 samples {per:?} ({} threads)", rayon::current_num_threads());
 }
 
 #[test]

@@ -147,6 +147,8 @@ fn malformed_statements_name_their_line() {
     let d = "derived 0 time=0.1 refs=3 fx=20 fy=20 cx=1.5 cy=1 position=0.1,0,0 orientation=0,0,0,1";
     assert_err(&parse_with(4, d), 4, "names reference 3");
     assert_err(&parse_with(4, &d.replace("refs=3", "refs=0,0")), 4, "twice");
+    let many = (0..9).map(|i| i.to_string()).collect::<Vec<_>>().join(",");
+    assert_err(&parse_with(4, &d.replace("refs=3", &format!("refs={many}"))), 4, "at most 8");
 }
 
 fn small_trace_dir() -> tempfile::TempDir {
@@ -221,4 +223,87 @@ fn missing_manifest_is_an_error_not_a_panic() {
     std::fs::write(&empty, "").unwrap();
     let msg = Trace::open(&empty).unwrap_err().to_string();
     assert!(msg.contains("empty.trace:1:"), "{msg}");
+}
+
+/// Write an EXR of 12x8 samples with exactly the given channels.
+fn write_exr(path: &Path, channels: Vec<(&str, exr::prelude::FlatSamples)>) {
+    use exr::prelude::*;
+    let list: Vec<AnyChannel<FlatSamples>> = channels.into_iter().map(|(n, s)| AnyChannel::new(n, s)).collect();
+    let layer = Layer::new(
+        (12, 8),
+        LayerAttributes::named("t"),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(list.into_iter().collect()),
+    );
+    Image::from_layer(layer).write().to_file(path).unwrap();
+}
+
+fn f32s(v: f32) -> exr::prelude::FlatSamples {
+    exr::prelude::FlatSamples::F32(vec![v; 96])
+}
+
+/// Replace reference 0's image by one with `channels`, and load it.
+fn load_with(channels: Vec<(&str, exr::prelude::FlatSamples)>) -> String {
+    let dir = small_trace_dir();
+    write_exr(&dir.path().join("ref/0000.exr"), channels);
+    let t = Trace::open(dir.path()).unwrap();
+    let msg = t.load_reference(0).unwrap_err().to_string();
+    assert!(msg.contains("ref/0000.exr") && msg.contains("postwarp.trace:4)"), "{msg}");
+    msg
+}
+
+fn rgbz() -> Vec<(&'static str, exr::prelude::FlatSamples)> {
+    vec![("R", f32s(0.5)), ("G", f32s(0.5)), ("B", f32s(0.5)), ("Z", f32s(2.0))]
+}
+
+#[test]
+fn every_image_channel_error_is_named() {
+    // A well-formed image loads.
+    let dir = small_trace_dir();
+    write_exr(&dir.path().join("ref/0000.exr"), rgbz());
+    assert!(Trace::open(dir.path()).unwrap().load_reference(0).is_ok());
+
+    let mut no_z = rgbz();
+    no_z.pop();
+    assert!(load_with(no_z).contains("missing channel `Z`"));
+
+    let mut no_g = rgbz();
+    no_g.remove(1);
+    assert!(load_with(no_g).contains("missing colour channel `G`"));
+
+    let mut one_slope = rgbz();
+    one_slope.push(("dinvz_dx", f32s(0.0)));
+    assert!(load_with(one_slope).contains("expected both or neither"));
+
+    let mut uint_z = rgbz();
+    uint_z[3] = ("Z", exr::prelude::FlatSamples::U32(vec![2; 96]));
+    assert!(load_with(uint_z).contains("channel `Z` is uint"));
+
+    let mut float_id = rgbz();
+    float_id.push(("id", f32s(1.0)));
+    assert!(load_with(float_id).contains("channel `id` is half or float; expected uint"));
+
+    let mut nan_colour = rgbz();
+    nan_colour[0] = ("R", f32s(f32::NAN));
+    assert!(load_with(nan_colour).contains("is not finite"));
+
+    let mut inf_slope = rgbz();
+    inf_slope.push(("dinvz_dx", f32s(f32::INFINITY)));
+    inf_slope.push(("dinvz_dy", f32s(0.0)));
+    assert!(load_with(inf_slope).contains("slope"));
+
+    let mut bad_valid = rgbz();
+    bad_valid.push(("valid", f32s(0.5)));
+    assert!(load_with(bad_valid).contains("`valid` = 0.5; expected 0 or 1"));
+}
+
+#[test]
+fn the_documented_example_parses() {
+    let doc = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/trace-format.md")).unwrap();
+    let ex = doc.find("Example: the first lines").expect("example paragraph");
+    let start = ex + doc[ex..].find("```\n").expect("example block") + 4;
+    let end = start + doc[start..].find("```").unwrap();
+    let t = parse_manifest(&doc[start..end], Path::new("docs/trace-format.md")).unwrap();
+    assert_eq!(t.display.width, 128);
+    assert_eq!(t.derived[0].references, vec![0, 1]);
 }

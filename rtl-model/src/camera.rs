@@ -6,7 +6,7 @@
 //! those coordinates. A pose holds the centre of projection `position` and the
 //! camera-to-world rotation `orientation` (a unit quaternion).
 //!
-//! McMillan's planar form (`warper-reference.md` §1): `P = [u | v | o]` maps
+//! McMillan's planar form (`docs/warper-reference.md` §1): `P = [u | v | o]` maps
 //! the homogeneous pixel `(x, y, 1)` to a world-space ray direction; a point
 //! is `X = C + P·(x, y, 1) / δ` with generalized disparity `δ = S · (1/Z)`.
 //! With `u = R·(1/fx, 0, 0)`, `v = R·(0, 1/fy, 0)`, `o = R·(−cx/fx, −cy/fy, 1)`
@@ -214,7 +214,7 @@ impl Epipole {
     }
 
     /// The occlusion-compatible traversal direction at image point `p`:
-    /// `D(p) = (ex − px·ew, ey − py·ew)` (`warper-reference.md` §2).
+    /// `D(p) = (ex − px·ew, ey − py·ew)` (`docs/warper-reference.md` §2).
     pub fn direction_at(&self, p: DVec2) -> DVec2 {
         DVec2::new(self.h.x - p.x * self.h.z, self.h.y - p.y * self.h.z)
     }
@@ -235,7 +235,7 @@ impl Epipole {
 }
 
 /// Everything the 3D warp of one reference camera to one derived camera
-/// needs (`warper-reference.md` §1–2). Image coordinates are those of the
+/// needs (`docs/warper-reference.md` §1–2). Image coordinates are those of the
 /// cameras given (use [`Camera::sample_grid`] to work in super-samples).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WarpSetup {

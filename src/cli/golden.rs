@@ -17,22 +17,22 @@ pub struct Args {
     /// Golden-model knobs as TOML (keys as in docs/golden.md).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Discontinuity threshold, as a ratio of the expected spacing (TR98: 1.4 to 2.3).
+    /// Discontinuity threshold, as a ratio of the expected spacing (TR98: 1.4 to 2.3) [default: 1.4].
     #[arg(long)]
     pub threshold: Option<f64>,
-    /// A-buffer fragments per pixel between warps (0 = no A-buffer).
+    /// A-buffer fragments per pixel between warps (0 = no A-buffer) [default: 3].
     #[arg(long)]
     pub abuffer_fragments: Option<u32>,
     /// Disable the epipolar hole fill.
     #[arg(long)]
     pub no_hole_fill: bool,
-    /// Kernels larger than 4x4: clip (hardware) or allow.
+    /// Kernels larger than 4x4: clip (hardware) or allow [default: clip].
     #[arg(long, value_enum)]
     pub over_limit: Option<OverLimit>,
-    /// Warp traversal order.
+    /// Warp traversal order [default: reverse].
     #[arg(long, value_enum)]
     pub warp_order: Option<WarpOrder>,
-    /// Reconstruction: anti-aliased rectangles or mesh + edge splats.
+    /// Reconstruction: anti-aliased rectangles or mesh + edge splats [default: aa-rect].
     #[arg(long, value_enum)]
     pub reconstruction: Option<Reconstruction>,
 }
@@ -83,20 +83,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         println!("slopes: computed from depth by finite differences for some reference frames ({slopes})");
     }
     print!("{}", r.table);
-    let m = &r.report["mean"];
-    println!(
-        "kernels over {0}x{0}: {1}, forced A-buffer merges: {2}, hole samples: {3}, empty samples: {4} (means per frame)",
-        cfg.kernel_limit, m["kernels_over_limit"], m["forced_merges"], m["hole_samples"], m["empty_samples"]
+    println!();
+    print!(
+        "{}",
+        crate::report::table::render_counters(
+            r.report["frames"].as_array().map(Vec::as_slice).unwrap_or(&[]),
+            &r.report["mean"]
+        )
     );
-    println!("kernel sizes (rows: width 0..8+, columns: height 0..8+), summed over frames:");
-    if let Some(rows) = m["kernel_sizes"].as_array() {
-        for (w, row) in rows.iter().enumerate() {
-            let cells: Vec<String> =
-                row.as_array().into_iter().flatten().map(|v| format!("{:>9}", v.as_f64().unwrap_or(0.0))).collect();
-            println!("  w={w}: {}", cells.join(""));
-        }
-    }
-    println!("fragments per pixel (0, 1, 2, ...), summed over frames: {}", m["fragments_per_pixel"]);
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())
 }

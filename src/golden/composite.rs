@@ -1,5 +1,5 @@
 //! Compositor: merge a candidate sample into the derived frame (TR98 §8,
-//! `warper-reference.md` §4).
+//! `docs/warper-reference.md` §4).
 //!
 //! Rules, per derived sample:
 //! 1. A real candidate always beats an empty or hole-fill sample.
@@ -11,7 +11,7 @@
 //!    compositor checks the candidate's better-reference mask at the stored
 //!    sample's source; the bit set means the stored sample's reference sees
 //!    the surface better, so the candidate loses; clear, the candidate wins.
-//!    (`warper-reference.md` §4 item 3 states the opposite test, which
+//!    (`docs/warper-reference.md` §4 item 3 states the opposite test, which
 //!    contradicts its own definition of the mask: we follow the paper.)
 //! 4. A write stores colour, 1/Z, slopes, source, clears the hole flag, and
 //!    sets the hole-fill colour (plane 6) to the candidate's fill colour

@@ -1,5 +1,5 @@
 //! Knobs of the golden model's algorithms. Each has a unit, a one-line
-//! description and a default from the paper (or from `warper-reference.md`
+//! description and a default from the paper (or from `docs/warper-reference.md`
 //! §7 where the paper is silent); `docs/golden.md` lists them.
 
 use serde::{Deserialize, Serialize};

@@ -1,5 +1,5 @@
 //! Hole fill: the epipolar post-pass after each reference warp (TR98 §9,
-//! §9.1, App. B; `warper-reference.md` §4 and §7 items 9, 15).
+//! §9.1, App. B; `docs/warper-reference.md` §4 and §7 items 9, 15).
 //!
 //! Rules:
 //! 1. The derived frame is traversed in the forward eight-sheet order
@@ -75,23 +75,36 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
                 let j = (ty * w + tx) as usize;
                 (visited[j] && d.fill_valid[j]).then_some(j)
             };
-            let near: Vec<usize> = [-1, 0, 1].into_iter().filter_map(tap).collect();
-            if near.is_empty() {
+            // Up to 3 near and 2 far taps, in fixed arrays (no allocation).
+            let mut taps = [0usize; 5];
+            let mut n_taps = 0;
+            for k in [-1, 0, 1] {
+                if let Some(j) = tap(k) {
+                    taps[n_taps] = j;
+                    n_taps += 1;
+                }
+            }
+            if n_taps == 0 {
                 st.unreached += 1;
                 return;
             }
-            let dist = (1 + near.iter().map(|&j| d.fill_distance[j] as u32).min().unwrap_or(0)).min(p.max_distance);
-            let mut taps = near;
+            let dist =
+                (1 + taps[..n_taps].iter().map(|&j| d.fill_distance[j] as u32).min().unwrap_or(0)).min(p.max_distance);
             if dist > p.far_distance {
-                let far: Vec<usize> =
-                    [-(p.far_offset as i64), p.far_offset as i64].into_iter().filter_map(tap).collect();
-                if !far.is_empty() {
+                let before = n_taps;
+                for k in [-(p.far_offset as i64), p.far_offset as i64] {
+                    if let Some(j) = tap(k) {
+                        taps[n_taps] = j;
+                        n_taps += 1;
+                    }
+                }
+                if n_taps > before {
                     st.far_taps_used += 1;
                 }
-                taps.extend(far);
             }
+            let taps = &taps[..n_taps];
             let mut c = [0.0f64; 3];
-            for &j in &taps {
+            for &j in taps {
                 for (acc, v) in c.iter_mut().zip(d.fill_colour[j]) {
                     *acc += v as f64;
                 }

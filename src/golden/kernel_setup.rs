@@ -1,5 +1,5 @@
 //! Kernel setup: the reconstruction kernel of each reference sample
-//! (TR98 §6, §7.2; `warper-reference.md` §3).
+//! (TR98 §6, §7.2; `docs/warper-reference.md` §3).
 //!
 //! Rules:
 //! 1. Discontinuity test (view-dependent): two reference samples at offset

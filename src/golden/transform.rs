@@ -1,5 +1,5 @@
 //! Transform: warp each reference sample into the derived image
-//! (`warper-reference.md` §1, §3), in double precision.
+//! (`docs/warper-reference.md` §1, §3), in double precision.
 //!
 //! Per sample: the warped position (x', y'), derived 1/Z and `W`
 //! (`W <= 0`: behind the derived camera, culled); the expected spacing `E`
@@ -11,7 +11,7 @@
 //! 1. `E = (|P1·x̄1| · f2) / (W · |P2·x̄2| · f1)` with `f` the geometric
 //!    mean focal length of each sample grid: the derived-image distance of
 //!    one reference sample step on a surface facing the reference centre
-//!    (`warper-reference.md` §3 for equal intrinsics).
+//!    (`docs/warper-reference.md` §3 for equal intrinsics).
 //! 2. Edge corner `(sx, sy)` ∈ {±1}²: warp `(x + sx/2, y + sy/2)` with
 //!    `1/Z + (sx·∂x + sy·∂y)/2`: exact for planar surfaces.
 //! 3. Derived slopes `∇2(1/Z2) = J⁻ᵀ·g` (J the warp's Jacobian, g the

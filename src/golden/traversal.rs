@@ -1,6 +1,6 @@
 //! Eight-sheet occlusion-compatible traversal of an image around an epipole
 //! (McMillan & Bishop's order in the eight-sheet variant TR98 §9 cites;
-//! `warper-reference.md` §2).
+//! `docs/warper-reference.md` §2).
 //!
 //! Rules:
 //! 1. The occlusion-compatible direction at pixel `p` is
@@ -23,7 +23,7 @@
 //!    occlusion, because every epipolar half-line stays within one octant).
 //! 6. The warp uses the *reverse* of this order in the reference image, so
 //!    that its sweep front crosses the derived image in the hole-fill order
-//!    (`warper-reference.md` §5, critical consistency point).
+//!    (`docs/warper-reference.md` §5, critical consistency point).
 //!
 //! Not modelled here: tile order (the hardware schedule), seams between
 //! octants near the epipole (adjacent samples on different octants may be

@@ -36,8 +36,10 @@ pub fn frame_entry(index: usize, quality: Option<&crate::metrics::Quality>, host
     Value::Object(m)
 }
 
-/// Mean over frames of every numeric key present in all of them (null
-/// entries are skipped; a key null in every frame is null). Histograms
+/// Mean over frames of every numeric key present in all of them. Null
+/// entries (non-finite values: a PSNR of +∞ for an identical frame, or a
+/// metric with nothing to score) are skipped, so a mean PSNR is over the
+/// frames with a finite PSNR; a key null in every frame is null. Histograms
 /// (arrays) are summed element-wise instead and reported as totals under
 /// the same key.
 pub fn mean_entry(frames: &[Value]) -> Value {

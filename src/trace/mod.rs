@@ -29,6 +29,9 @@ pub const MANIFEST_NAME: &str = "postwarp.trace";
 pub const MAX_SIDE: u32 = 16384;
 /// Largest accepted super-sampling factor (samples per pixel per axis).
 pub const MAX_SUPERSAMPLE: u32 = 4;
+/// Most reference frames one derived frame may warp (the source-number
+/// plane and the better-reference mask are sized for it; TR98 uses 2).
+pub const MAX_REFS_PER_FRAME: usize = 8;
 /// Largest accepted number of samples in one image (2^28).
 pub const MAX_SAMPLES: u64 = 1 << 28;
 

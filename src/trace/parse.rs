@@ -150,6 +150,12 @@ fn parse_derived(f: &mut Fields, d: Display) -> Result<DerivedFrame, String> {
         }
         references.push(i);
     }
+    if references.len() > MAX_REFS_PER_FRAME {
+        return Err(format!(
+            "refs = `{refs}` names {} reference frames; a derived frame warps at most {MAX_REFS_PER_FRAME}",
+            references.len()
+        ));
+    }
     let truth = if f.has("truth") { Some(f.path("truth")?) } else { None };
     let camera = parse_camera(f, d.width, d.height)?;
     Ok(DerivedFrame { time_s, camera, references, truth })
