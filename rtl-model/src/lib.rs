@@ -11,9 +11,14 @@
 #![warn(missing_docs)]
 
 pub mod camera;
+pub mod clock;
 pub mod cmd;
+pub mod config;
+pub mod fifo;
 pub mod fixed;
+pub mod mem;
 pub mod sample_image;
+pub mod stats;
 
 pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
 pub use cmd::{FrameCommands, ReferenceWarp};

@@ -1,0 +1,314 @@
+//! Knobs of the cycle-level hardware model.
+//!
+//! Job: one plain struct, [`EngineConfig`], with every parameter of the
+//! hardware model, each with a unit, a one-line description ([`KNOBS`]) and
+//! a default from the paper (UNC TR98-011) or from
+//! `docs/warper-reference.md` §5 and §7 where the paper is silent.
+//!
+//! API: `EngineConfig::default()` (= the `mark1998` preset),
+//! [`EngineConfig::preset`] with the names in [`PRESETS`],
+//! [`EngineConfig::validate`] (the message names the knob),
+//! [`EngineConfig::dram`] (the [`DramConfig`] part), [`KNOBS`].
+//!
+//! Rules: no parsing here (this crate has no dependencies beyond `glam` and
+//! `bitvec`); the `postwarp` crate maps TOML keys one to one onto the field
+//! names, which are the names in [`KNOBS`]. Only raw knobs are stored;
+//! derived quantities (cycles per frame, bytes per cycle needed) are
+//! computed by whoever reports them.
+//!
+//! Throughput/latency: not applicable (plain data).
+//!
+//! Not modelled: per-unit FIFO depths (they belong to the engine that wires
+//! the units), clock domains other than one engine clock.
+//!
+//! # Presets (assumptions, documented here and nowhere else)
+//!
+//! `mark1998`, the default: the paper's target, 640x480 at 30 Hz with 2x2
+//! super-samples and two references per derived frame (TR98 §10 goals: at
+//! least 640x480 anti-aliased, 30–70 Hz, one warper serving both
+//! references). A 1998-class ASIC: 100 MHz clock; memory of 1.6 GB/s, i.e.
+//! a 128-bit PC100 SDRAM interface (16 bytes per 100 MHz cycle), 32-byte
+//! bursts (64-bit DIMM, burst length 4), about 120 ns to first data
+//! (row miss at CL2/tRCD 2/tRP 2 plus controller and pad time: 12 cycles).
+//! The bandwidth model of `docs/warper-reference.md` §5 needs about
+//! 1.1 GB/s at 30 Hz for this frame, so the channel has headroom. The
+//! destination cache of 576 KiB covers the §5 working-set example (573 KB
+//! for a 1280-sample-wide sweep with 16 rows of tilt plus parallax); the
+//! source cache of 64 KiB holds two pixel rows of a 1071-pixel-wide
+//! reference in A-buffer format (2 × 1071 × 1.2 fragments × 12 B ≈ 31 KB)
+//! twice over. Transform pipeline depth 12 cycles (a reciprocal and the
+//! 13-operation incremental warp), one sample per cycle.
+//!
+//! `hmd2026`: a stereo head-mounted display, 2 views of 2000x2000 at 90 Hz,
+//! 2x2 super-samples, two references per view. A 2026 mobile-SoC block at
+//! 1 GHz sharing 128-bit LPDDR5X-8533 (136.5 GB/s peak: 8533 MT/s × 16 B;
+//! 136 bytes per 1 GHz cycle, rounded down), 64-byte bursts (cache line),
+//! 100 ns loaded latency (100 cycles). For reference, Apple's M2 in the
+//! Vision Pro has 128-bit LPDDR5-6400 at 100 GB/s. The source load with
+//! references 2.6 times the display area (TR98's enlarged field of view) is
+//! 2 views × 2 references × 2.6 × 16 M samples × 90 Hz ≈ 15 G samples/s,
+//! hence 16 samples and 16 rectangles per cycle. The §5 working set scales
+//! with the sweep width (4000 samples): 4000 × 28 rows × 16 B ≈ 1.8 MB, so
+//! a 2 MiB destination cache; 256 KiB of source cache. By the §5 bandwidth
+//! model (f = 1.2 fragments, 12 B each) one view-frame moves about
+//! 0.49 GB, i.e. about 88 GB/s for two views at 90 Hz: within the peak but
+//! a large share of a memory also used by the renderer and the display,
+//! which this preset does not subtract.
+
+use crate::mem::DramConfig;
+
+/// Bytes one super-sample occupies in an on-chip cache (colour, 1/Z and
+/// slopes, flags), after `docs/warper-reference.md` §5 (16 B per sample).
+pub const CACHE_BYTES_PER_SAMPLE: u64 = 16;
+
+/// Names accepted by [`EngineConfig::preset`].
+pub const PRESETS: &[&str] = &["mark1998", "hmd2026"];
+
+/// Every knob of the hardware model. Field names are the knob names.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EngineConfig {
+    /// Super-samples per pixel along each axis (samples).
+    pub supersample: u32,
+    /// A-buffer fragments per pixel in memory (fragments/pixel; 0 = samples
+    /// stored raw, no A-buffer).
+    pub max_fragments: u32,
+    /// Largest kernel side the rasterizer draws (samples).
+    pub kernel_limit: u32,
+    /// Rectangles the rasterizer accepts per cycle (rectangles/cycle).
+    pub rects_per_cycle: u32,
+    /// Cycles from a sample entering the transform unit to its result
+    /// (cycles).
+    pub transform_latency: u32,
+    /// Samples the transform unit accepts per cycle (samples/cycle).
+    pub transform_throughput: u32,
+    /// Side of a destination tile (samples).
+    pub tile_size: u32,
+    /// Capacity of the destination tile cache (bytes).
+    pub dest_cache_bytes: u64,
+    /// Capacity of the source (reference) cache (bytes).
+    pub source_cache_bytes: u64,
+    /// Peak DRAM bandwidth available to the warper (bytes/cycle).
+    pub dram_peak_bytes_per_cycle: u64,
+    /// Cycles from a DRAM request's acceptance to its first data (cycles).
+    pub dram_latency_cycles: u64,
+    /// DRAM transfer granule; requests are rounded up to it (bytes).
+    pub dram_burst_bytes: u64,
+    /// DRAM requests outstanding at once (requests).
+    pub dram_max_outstanding: u32,
+    /// Engine clock frequency (Hz).
+    pub clock_hz: u64,
+    /// Derived frames per second to sustain, per view (Hz).
+    pub target_frame_rate_hz: f64,
+    /// Display width per view (pixels).
+    pub display_width: u32,
+    /// Display height per view (pixels).
+    pub display_height: u32,
+    /// Views rendered per frame time, each by the same warper (views; 2 for
+    /// a stereo head-mounted display).
+    pub views: u32,
+    /// Reference frames warped per derived frame (references).
+    pub references_per_frame: u32,
+}
+
+/// (name, unit, description) of every knob, in field order, for reports and
+/// docs.
+pub const KNOBS: &[(&str, &str, &str)] = &[
+    ("supersample", "samples", "super-samples per pixel along each axis"),
+    ("max_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory (0 = raw samples)"),
+    ("kernel_limit", "samples", "largest kernel side the rasterizer draws"),
+    ("rects_per_cycle", "rectangles/cycle", "rectangles the rasterizer accepts per cycle"),
+    ("transform_latency", "cycles", "pipeline depth of the transform unit"),
+    ("transform_throughput", "samples/cycle", "samples the transform unit accepts per cycle"),
+    ("tile_size", "samples", "side of a destination tile"),
+    ("dest_cache_bytes", "bytes", "capacity of the destination tile cache"),
+    ("source_cache_bytes", "bytes", "capacity of the source (reference) cache"),
+    ("dram_peak_bytes_per_cycle", "bytes/cycle", "peak DRAM bandwidth available to the warper"),
+    ("dram_latency_cycles", "cycles", "cycles from a DRAM request's acceptance to its first data"),
+    ("dram_burst_bytes", "bytes", "DRAM transfer granule; requests are rounded up to whole bursts"),
+    ("dram_max_outstanding", "requests", "DRAM requests outstanding at once"),
+    ("clock_hz", "Hz", "engine clock frequency"),
+    ("target_frame_rate_hz", "Hz", "derived frames per second to sustain, per view"),
+    ("display_width", "pixels", "display width per view"),
+    ("display_height", "pixels", "display height per view"),
+    ("views", "views", "views rendered per frame time by the one warper (2 = stereo HMD)"),
+    ("references_per_frame", "references", "reference frames warped per derived frame"),
+];
+
+impl Default for EngineConfig {
+    /// The `mark1998` preset.
+    fn default() -> Self {
+        EngineConfig {
+            supersample: 2,
+            max_fragments: 3,
+            kernel_limit: 4,
+            rects_per_cycle: 1,
+            transform_latency: 12,
+            transform_throughput: 1,
+            tile_size: 8,
+            dest_cache_bytes: 576 * 1024,
+            source_cache_bytes: 64 * 1024,
+            dram_peak_bytes_per_cycle: 16,
+            dram_latency_cycles: 12,
+            dram_burst_bytes: 32,
+            dram_max_outstanding: 16,
+            clock_hz: 100_000_000,
+            target_frame_rate_hz: 30.0,
+            display_width: 640,
+            display_height: 480,
+            views: 1,
+            references_per_frame: 2,
+        }
+    }
+}
+
+impl EngineConfig {
+    /// A named preset (see the module documentation for the numbers and
+    /// their sources); the error lists the known names.
+    pub fn preset(name: &str) -> Result<EngineConfig, String> {
+        match name {
+            "mark1998" => Ok(EngineConfig::default()),
+            "hmd2026" => Ok(EngineConfig {
+                rects_per_cycle: 16,
+                transform_throughput: 16,
+                dest_cache_bytes: 2 * 1024 * 1024,
+                source_cache_bytes: 256 * 1024,
+                dram_peak_bytes_per_cycle: 136,
+                dram_latency_cycles: 100,
+                dram_burst_bytes: 64,
+                dram_max_outstanding: 64,
+                clock_hz: 1_000_000_000,
+                target_frame_rate_hz: 90.0,
+                display_width: 2000,
+                display_height: 2000,
+                views: 2,
+                ..EngineConfig::default()
+            }),
+            _ => Err(format!("unknown preset `{name}`: expected one of {}", PRESETS.join(", "))),
+        }
+    }
+
+    /// The DRAM model's knobs.
+    pub fn dram(&self) -> DramConfig {
+        DramConfig {
+            peak_bytes_per_cycle: self.dram_peak_bytes_per_cycle,
+            latency_cycles: self.dram_latency_cycles,
+            burst_bytes: self.dram_burst_bytes,
+            max_outstanding: self.dram_max_outstanding as usize,
+        }
+    }
+
+    /// Check the knobs; the message starts with the knob's name.
+    pub fn validate(&self) -> Result<(), String> {
+        let range = |name: &str, v: u64, lo: u64, hi: u64, unit: &str| {
+            if (lo..=hi).contains(&v) { Ok(()) } else { Err(format!("{name} = {v}: expected {lo} to {hi} {unit}")) }
+        };
+        range("supersample", self.supersample.into(), 1, 8, "samples")?;
+        range("max_fragments", self.max_fragments.into(), 0, 16, "fragments/pixel")?;
+        range("kernel_limit", self.kernel_limit.into(), 1, 64, "samples")?;
+        range("rects_per_cycle", self.rects_per_cycle.into(), 1, 256, "rectangles/cycle")?;
+        range("transform_latency", self.transform_latency.into(), 1, 1024, "cycles")?;
+        range("transform_throughput", self.transform_throughput.into(), 1, 256, "samples/cycle")?;
+        range("tile_size", self.tile_size.into(), 1, 256, "samples")?;
+        let tile_bytes = u64::from(self.tile_size).pow(2) * CACHE_BYTES_PER_SAMPLE;
+        range("dest_cache_bytes", self.dest_cache_bytes, tile_bytes, 1 << 34, "bytes (at least one tile)")?;
+        range("source_cache_bytes", self.source_cache_bytes, 1, 1 << 34, "bytes")?;
+        self.dram().validate()?;
+        range("clock_hz", self.clock_hz, 1, 1 << 40, "Hz")?;
+        let fps = self.target_frame_rate_hz;
+        if !(fps.is_finite() && fps > 0.0 && fps <= 10_000.0) {
+            return Err(format!("target_frame_rate_hz = {fps}: expected a positive number up to 10000 Hz"));
+        }
+        range("display_width", self.display_width.into(), 1, 16384, "pixels")?;
+        range("display_height", self.display_height.into(), 1, 16384, "pixels")?;
+        range("views", self.views.into(), 1, 8, "views")?;
+        range("references_per_frame", self.references_per_frame.into(), 1, 16, "references")?;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_validate_and_match_the_paper() {
+        let c = EngineConfig::default();
+        assert_eq!(c.validate(), Ok(()));
+        assert_eq!((c.supersample, c.max_fragments, c.kernel_limit, c.tile_size), (2, 3, 4, 8));
+        assert_eq!((c.display_width, c.display_height, c.references_per_frame), (640, 480, 2));
+        assert_eq!(c.dest_cache_bytes, 589_824);
+    }
+
+    #[test]
+    fn presets_validate() {
+        for name in PRESETS {
+            let c = EngineConfig::preset(name).unwrap();
+            assert_eq!(c.validate(), Ok(()), "{name}");
+        }
+        assert_eq!(EngineConfig::preset("mark1998"), Ok(EngineConfig::default()));
+        let hmd = EngineConfig::preset("hmd2026").unwrap();
+        assert_eq!((hmd.views, hmd.display_width, hmd.display_height, hmd.target_frame_rate_hz), (2, 2000, 2000, 90.0));
+    }
+
+    #[test]
+    fn an_unknown_preset_lists_the_known_ones() {
+        let e = EngineConfig::preset("nope").unwrap_err();
+        assert!(e.contains("nope") && e.contains("mark1998") && e.contains("hmd2026"), "{e}");
+    }
+
+    /// Sets one knob to an invalid value.
+    type Breaker = fn(&mut EngineConfig);
+
+    /// One invalid setting per knob.
+    fn invalid_cases() -> Vec<(&'static str, Breaker)> {
+        vec![
+            ("supersample", |c| c.supersample = 0),
+            ("max_fragments", |c| c.max_fragments = 17),
+            ("kernel_limit", |c| c.kernel_limit = 0),
+            ("rects_per_cycle", |c| c.rects_per_cycle = 0),
+            ("transform_latency", |c| c.transform_latency = 0),
+            ("transform_throughput", |c| c.transform_throughput = 0),
+            ("tile_size", |c| c.tile_size = 0),
+            ("dest_cache_bytes", |c| c.dest_cache_bytes = 8 * 8 * 16 - 1),
+            ("source_cache_bytes", |c| c.source_cache_bytes = 0),
+            ("dram_peak_bytes_per_cycle", |c| c.dram_peak_bytes_per_cycle = 0),
+            ("dram_latency_cycles", |c| c.dram_latency_cycles = u64::MAX),
+            ("dram_burst_bytes", |c| c.dram_burst_bytes = 24),
+            ("dram_max_outstanding", |c| c.dram_max_outstanding = 0),
+            ("clock_hz", |c| c.clock_hz = 0),
+            ("target_frame_rate_hz", |c| c.target_frame_rate_hz = f64::NAN),
+            ("display_width", |c| c.display_width = 0),
+            ("display_height", |c| c.display_height = 20_000),
+            ("views", |c| c.views = 0),
+            ("references_per_frame", |c| c.references_per_frame = 0),
+        ]
+    }
+
+    #[test]
+    fn each_invalid_knob_is_rejected_with_its_name() {
+        for (knob, break_it) in invalid_cases() {
+            let mut c = EngineConfig::default();
+            break_it(&mut c);
+            let e = c.validate().unwrap_err();
+            assert!(e.starts_with(&format!("{knob} = ")), "{knob}: {e}");
+        }
+    }
+
+    #[test]
+    fn every_knob_is_listed_and_has_an_invalid_case() {
+        let listed: Vec<&str> = KNOBS.iter().map(|k| k.0).collect();
+        let tested: Vec<&str> = invalid_cases().iter().map(|k| k.0).collect();
+        assert_eq!(listed, tested);
+        assert!(KNOBS.iter().all(|(_, unit, desc)| !unit.is_empty() && !desc.is_empty()));
+        // Field count check: Debug prints one `name: value` per field.
+        let fields = format!("{:?}", EngineConfig::default()).matches(": ").count();
+        assert_eq!(fields, KNOBS.len());
+    }
+
+    #[test]
+    fn the_dram_part_maps_field_by_field() {
+        let c = EngineConfig::preset("hmd2026").unwrap();
+        let d = c.dram();
+        assert_eq!((d.peak_bytes_per_cycle, d.latency_cycles, d.burst_bytes, d.max_outstanding), (136, 100, 64, 64));
+    }
+}

@@ -1,0 +1,568 @@
+//! DRAM: one shared, bandwidth- and latency-limited off-chip memory channel.
+//!
+//! Job: accept read and write requests from the warper's memory clients,
+//! return each one after a fixed latency plus its transfer time on a shared
+//! data bus, and count bytes per client (DRAMsim3's
+//! `WillAccept`/`Add`/`ClockTick` protocol).
+//!
+//! API ([`Dram`]): `new(DramConfig)`; each cycle the engine calls
+//! `tick(now)` first, then clients call `will_accept(now)`,
+//! `request(now, client, access, bytes, tag) -> Result<(), Request>` (a
+//! refused request is handed back) and `completed(now) -> Option<(tag,
+//! client)>`; `counters()`, `stats()` (a [`Stats`] with [`DRAM_STATS`]),
+//! `reset_counters()`, `outstanding()`.
+//!
+//! Knobs ([`DramConfig`]): `peak_bytes_per_cycle` (bytes/cycle),
+//! `latency_cycles` (cycles), `burst_bytes` (bytes), `max_outstanding`
+//! (requests).
+//!
+//! Timing rules (a serialization model of the data bus):
+//! - Every request is rounded up to whole bursts: it moves
+//!   `ceil(bytes / burst_bytes) * burst_bytes` bytes, and that rounded amount
+//!   is what occupies the bus and what the byte counters count.
+//! - The data bus moves at most `peak_bytes_per_cycle` bytes in each cycle,
+//!   reads and writes alike (one bidirectional bus). Transfers are served in
+//!   acceptance order; a transfer may start in the middle of a cycle where
+//!   the previous one ended, so two small transfers can share a cycle. Hence
+//!   over any window of c cycles at most `peak_bytes_per_cycle * c` bytes
+//!   move.
+//! - A request accepted at cycle A cannot start its transfer before cycle
+//!   A + `latency_cycles` (command, array access and controller time,
+//!   pipelined across requests). Its transfer starts at the later of that and
+//!   the end of the previous transfer, takes `bytes / peak` cycles of bus
+//!   time, and the request is *completed* — returned by `completed` — from
+//!   the first cycle after its last byte moved. Alone on an idle bus a
+//!   request therefore completes at exactly
+//!   A + `latency_cycles` + `ceil(rounded bytes / peak_bytes_per_cycle)`.
+//!   Writes complete the same way (the acknowledgement returns after the
+//!   data has been written).
+//! - Completions come back in acceptance order.
+//! - Backpressure: `will_accept(now)` is false, and `request` refuses, when
+//!   a request was already accepted this cycle (one command port) or when
+//!   `max_outstanding` requests are outstanding. A request stays outstanding
+//!   until `completed` returns it, so a client that does not drain its
+//!   completions eventually blocks the channel.
+//! - `tick(now)` must be called once per cycle, with consecutive cycles,
+//!   before any other call of that cycle; the other calls must pass the same
+//!   `now` (debug assertions).
+//!
+//! Stats (units in [`DRAM_STATS`]): bytes read and written, in total and per
+//! [`Client`], counted when a request is accepted; requests; bytes requested
+//! before burst rounding; cycles with a refused request (counted once per
+//! cycle); cycles with at least one request outstanding; a histogram of
+//! per-request latency from acceptance to completion. Bandwidth utilisation
+//! and rounding overhead are ratios of these and are derived by reports.
+//!
+//! Not modelled: banks, rows and row-buffer hits, refresh, read/write
+//! turnaround, command scheduling or reordering, multiple channels, error
+//! correction, and any traffic of the renderer or display sharing the
+//! memory (give the warper a lower `peak_bytes_per_cycle` to account for it).
+
+use std::collections::VecDeque;
+
+use crate::clock::Cycle;
+use crate::stats::{Histogram, StatDef, Stats};
+
+/// Who asked for the data (one byte counter pair per client).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Client {
+    /// Reference frames read in A-buffer format by the fetch/expand unit.
+    ReferenceFetch,
+    /// Destination tiles read into the destination cache.
+    TileFill,
+    /// Destination tiles written back from the destination cache.
+    TileWriteBack,
+    /// The finished derived frame written out (A-buffer packer / display).
+    Output,
+}
+
+impl Client {
+    /// Every client, in counter order.
+    pub const ALL: [Client; 4] = [Client::ReferenceFetch, Client::TileFill, Client::TileWriteBack, Client::Output];
+
+    /// Position in [`Client::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Snake-case name, as used in stat names.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Client::ReferenceFetch => "reference_fetch",
+            Client::TileFill => "tile_fill",
+            Client::TileWriteBack => "tile_write_back",
+            Client::Output => "output",
+        }
+    }
+}
+
+/// Direction of a transfer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Access {
+    /// Memory to chip.
+    Read,
+    /// Chip to memory.
+    Write,
+}
+
+/// A memory request, as handed back when refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Request {
+    /// Who asked.
+    pub client: Client,
+    /// Read or write.
+    pub access: Access,
+    /// Bytes asked for (before rounding to bursts).
+    pub bytes: u64,
+    /// The client's identifier, returned on completion.
+    pub tag: u64,
+}
+
+/// The DRAM knobs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DramConfig {
+    /// Peak data-bus bandwidth (bytes/cycle).
+    pub peak_bytes_per_cycle: u64,
+    /// Cycles from acceptance to the earliest start of the data transfer
+    /// (cycles).
+    pub latency_cycles: u64,
+    /// Transfer granule; requests are rounded up to whole bursts (bytes).
+    pub burst_bytes: u64,
+    /// Requests accepted and not yet returned by `completed` (requests).
+    pub max_outstanding: usize,
+}
+
+impl DramConfig {
+    /// Check the knobs; the message names the knob as `EngineConfig` does.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=1 << 20).contains(&self.peak_bytes_per_cycle) {
+            return Err(format!(
+                "dram_peak_bytes_per_cycle = {}: expected 1 to 1048576 bytes/cycle",
+                self.peak_bytes_per_cycle
+            ));
+        }
+        if self.latency_cycles > 1_000_000 {
+            return Err(format!("dram_latency_cycles = {}: expected 0 to 1000000 cycles", self.latency_cycles));
+        }
+        if !(self.burst_bytes.is_power_of_two() && self.burst_bytes <= 4096) {
+            return Err(format!(
+                "dram_burst_bytes = {}: expected a power of two from 1 to 4096 bytes",
+                self.burst_bytes
+            ));
+        }
+        if !(1..=1 << 16).contains(&self.max_outstanding) {
+            return Err(format!("dram_max_outstanding = {}: expected 1 to 65536 requests", self.max_outstanding));
+        }
+        Ok(())
+    }
+
+    /// `bytes` rounded up to whole bursts (bytes).
+    pub fn rounded(&self, bytes: u64) -> u64 {
+        bytes.div_ceil(self.burst_bytes) * self.burst_bytes
+    }
+}
+
+/// Every DRAM stat, in report order.
+pub const DRAM_STATS: &[StatDef] = &[
+    StatDef::counter("dram.bytes_read", "bytes", "bytes read, all clients, rounded up to whole bursts"),
+    StatDef::counter("dram.bytes_written", "bytes", "bytes written, all clients, rounded up to whole bursts"),
+    StatDef::counter("dram.bytes_read.reference_fetch", "bytes", "bytes read for reference frames (A-buffer format)"),
+    StatDef::counter("dram.bytes_written.reference_fetch", "bytes", "bytes written by the reference fetch unit"),
+    StatDef::counter("dram.bytes_read.tile_fill", "bytes", "bytes read to fill destination tiles"),
+    StatDef::counter("dram.bytes_written.tile_fill", "bytes", "bytes written by the tile fill path"),
+    StatDef::counter("dram.bytes_read.tile_write_back", "bytes", "bytes read by the tile write-back path"),
+    StatDef::counter("dram.bytes_written.tile_write_back", "bytes", "bytes written back from destination tiles"),
+    StatDef::counter("dram.bytes_read.output", "bytes", "bytes read by the output path"),
+    StatDef::counter("dram.bytes_written.output", "bytes", "bytes of the finished derived frame written out"),
+    StatDef::counter("dram.requests", "requests", "requests accepted"),
+    StatDef::counter("dram.requested_bytes", "bytes", "bytes asked for, before rounding up to bursts"),
+    StatDef::counter("dram.refused_cycles", "cycles", "cycles in which at least one request was refused"),
+    StatDef::counter("dram.outstanding_cycles", "cycles", "cycles with at least one request outstanding"),
+    StatDef::histogram("dram.latency", "cycles", "per request: cycles from acceptance to completion"),
+];
+
+/// Raw event counts of a [`Dram`] since it was made (or last reset).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct DramCounters {
+    /// Bytes read, all clients (bytes, rounded to bursts).
+    pub bytes_read: u64,
+    /// Bytes written, all clients (bytes, rounded to bursts).
+    pub bytes_written: u64,
+    /// Bytes read per client, indexed by [`Client::index`] (bytes).
+    pub client_bytes_read: [u64; 4],
+    /// Bytes written per client, indexed by [`Client::index`] (bytes).
+    pub client_bytes_written: [u64; 4],
+    /// Requests accepted (requests).
+    pub requests: u64,
+    /// Bytes asked for before burst rounding (bytes).
+    pub requested_bytes: u64,
+    /// Cycles with at least one refused request (cycles).
+    pub refused_cycles: u64,
+    /// Cycles ticked with at least one request outstanding (cycles).
+    pub outstanding_cycles: u64,
+    /// Acceptance-to-completion latency per request (cycles).
+    pub latency: Histogram,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct InFlight {
+    done: Cycle,
+    tag: u64,
+    client: Client,
+}
+
+/// The DRAM model. See the module documentation for the timing rules.
+#[derive(Clone, Debug)]
+pub struct Dram {
+    cfg: DramConfig,
+    in_flight: VecDeque<InFlight>,
+    /// First free byte slot of the bus: cycle c carries the slots
+    /// `[c * peak, (c + 1) * peak)`.
+    bus_free_slot: u64,
+    last_accept: Option<Cycle>,
+    last_refused: Option<Cycle>,
+    now: Option<Cycle>,
+    counters: DramCounters,
+}
+
+impl Dram {
+    /// A DRAM with knobs `cfg`, idle.
+    ///
+    /// # Panics
+    /// If `cfg` does not validate.
+    pub fn new(cfg: DramConfig) -> Dram {
+        cfg.validate().unwrap_or_else(|e| panic!("invalid DRAM configuration: {e}"));
+        Dram {
+            cfg,
+            in_flight: VecDeque::with_capacity(cfg.max_outstanding),
+            bus_free_slot: 0,
+            last_accept: None,
+            last_refused: None,
+            now: None,
+            counters: DramCounters::default(),
+        }
+    }
+
+    /// The knobs.
+    pub fn config(&self) -> &DramConfig {
+        &self.cfg
+    }
+
+    /// Advance to cycle `now` (called once per cycle, before any other call
+    /// of that cycle).
+    pub fn tick(&mut self, now: Cycle) {
+        debug_assert!(
+            self.now.is_none_or(|prev| now == prev.next()),
+            "Dram::tick({now}) after tick({:?}): cycles must be consecutive",
+            self.now
+        );
+        self.now = Some(now);
+        if !self.in_flight.is_empty() {
+            self.counters.outstanding_cycles += 1;
+        }
+    }
+
+    /// True if a request at `now` would be accepted.
+    pub fn will_accept(&self, now: Cycle) -> bool {
+        self.check_now(now);
+        self.last_accept != Some(now) && self.in_flight.len() < self.cfg.max_outstanding
+    }
+
+    /// Ask for a transfer of `bytes` (more than 0) at `now`. On refusal the
+    /// request is handed back and the cycle counts as a refused cycle.
+    ///
+    /// # Panics
+    /// If `bytes` is 0.
+    pub fn request(&mut self, now: Cycle, client: Client, access: Access, bytes: u64, tag: u64) -> Result<(), Request> {
+        assert!(bytes > 0, "DRAM request of 0 bytes");
+        if !self.will_accept(now) {
+            if self.last_refused != Some(now) {
+                self.counters.refused_cycles += 1;
+                self.last_refused = Some(now);
+            }
+            return Err(Request { client, access, bytes, tag });
+        }
+        let peak = self.cfg.peak_bytes_per_cycle;
+        let rounded = self.cfg.rounded(bytes);
+        let start = self.bus_free_slot.max((now + self.cfg.latency_cycles).get() * peak);
+        let end = start + rounded;
+        let done = Cycle(end.div_ceil(peak));
+        self.bus_free_slot = end;
+        self.last_accept = Some(now);
+        self.in_flight.push_back(InFlight { done, tag, client });
+
+        let c = &mut self.counters;
+        c.requests += 1;
+        c.requested_bytes += bytes;
+        match access {
+            Access::Read => {
+                c.bytes_read += rounded;
+                c.client_bytes_read[client.index()] += rounded;
+            }
+            Access::Write => {
+                c.bytes_written += rounded;
+                c.client_bytes_written[client.index()] += rounded;
+            }
+        }
+        c.latency.record(done - now);
+        Ok(())
+    }
+
+    /// The oldest outstanding request, if it has completed by `now`:
+    /// `(tag, client)`. Frees its outstanding slot.
+    pub fn completed(&mut self, now: Cycle) -> Option<(u64, Client)> {
+        self.check_now(now);
+        let head = self.in_flight.front()?;
+        if head.done > now {
+            return None;
+        }
+        let InFlight { tag, client, .. } = self.in_flight.pop_front()?;
+        Some((tag, client))
+    }
+
+    /// Requests accepted and not yet returned by `completed`.
+    pub fn outstanding(&self) -> usize {
+        self.in_flight.len()
+    }
+
+    /// Raw counts so far.
+    pub fn counters(&self) -> &DramCounters {
+        &self.counters
+    }
+
+    /// Zero the counts (e.g. at a frame boundary); requests in flight stay.
+    pub fn reset_counters(&mut self) {
+        self.counters = DramCounters::default();
+        self.last_refused = None;
+    }
+
+    /// The counts as a [`Stats`] declaring [`DRAM_STATS`].
+    pub fn stats(&self) -> Stats {
+        let c = &self.counters;
+        let mut s = Stats::new(DRAM_STATS);
+        s.add_count("dram.bytes_read", c.bytes_read);
+        s.add_count("dram.bytes_written", c.bytes_written);
+        for (i, client) in Client::ALL.into_iter().enumerate() {
+            // Stat i of each direction, laid out as in DRAM_STATS.
+            let read = DRAM_STATS[2 + 2 * i].name;
+            let written = DRAM_STATS[3 + 2 * i].name;
+            debug_assert_eq!(read, format!("dram.bytes_read.{}", client.name()));
+            debug_assert_eq!(written, format!("dram.bytes_written.{}", client.name()));
+            s.add_count(read, c.client_bytes_read[i]);
+            s.add_count(written, c.client_bytes_written[i]);
+        }
+        s.add_count("dram.requests", c.requests);
+        s.add_count("dram.requested_bytes", c.requested_bytes);
+        s.add_count("dram.refused_cycles", c.refused_cycles);
+        s.add_count("dram.outstanding_cycles", c.outstanding_cycles);
+        for (v, n) in c.latency.bins() {
+            s.record_n("dram.latency", v, n);
+        }
+        s
+    }
+
+    fn check_now(&self, now: Cycle) {
+        debug_assert!(self.now == Some(now), "Dram used at cycle {now} but last ticked at {:?}", self.now);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CFG: DramConfig =
+        DramConfig { peak_bytes_per_cycle: 16, latency_cycles: 10, burst_bytes: 32, max_outstanding: 8 };
+
+    /// Tick from `from` up to and including `to`.
+    fn tick_to(d: &mut Dram, from: Cycle, to: Cycle) {
+        for t in from.get()..=to.get() {
+            d.tick(Cycle(t));
+        }
+    }
+
+    #[test]
+    fn a_single_read_completes_at_accept_plus_latency_plus_transfer_and_not_before() {
+        for (peak, latency, bytes) in [(16, 10, 64), (16, 0, 64), (8, 3, 32), (16, 10, 1), (64, 100, 64), (3, 5, 32)] {
+            let cfg =
+                DramConfig { peak_bytes_per_cycle: peak, latency_cycles: latency, burst_bytes: 32, max_outstanding: 4 };
+            let mut d = Dram::new(cfg);
+            let accept = Cycle(5);
+            tick_to(&mut d, Cycle(0), accept);
+            d.request(accept, Client::ReferenceFetch, Access::Read, bytes, 77).unwrap();
+            let transfer = cfg.rounded(bytes).div_ceil(peak);
+            let done = accept + latency + transfer;
+            tick_to(&mut d, accept.next(), done - 1);
+            assert_eq!(d.completed(done - 1), None, "{cfg:?} {bytes}: early");
+            d.tick(done);
+            assert_eq!(d.completed(done), Some((77, Client::ReferenceFetch)), "{cfg:?} {bytes}");
+            assert_eq!(d.outstanding(), 0);
+            assert_eq!(d.counters().latency.bins().collect::<Vec<_>>(), [(done - accept, 1)]);
+        }
+    }
+
+    #[test]
+    fn a_request_is_rounded_up_to_whole_bursts() {
+        let mut d = Dram::new(CFG);
+        d.tick(Cycle(0));
+        d.request(Cycle(0), Client::TileFill, Access::Read, 33, 0).unwrap();
+        d.tick(Cycle(1));
+        d.request(Cycle(1), Client::TileWriteBack, Access::Write, 1, 1).unwrap();
+        d.tick(Cycle(2));
+        d.request(Cycle(2), Client::Output, Access::Write, 64, 2).unwrap();
+        let c = d.counters();
+        assert_eq!(c.client_bytes_read[Client::TileFill.index()], 64);
+        assert_eq!(c.client_bytes_written[Client::TileWriteBack.index()], 32);
+        assert_eq!(c.client_bytes_written[Client::Output.index()], 64);
+        assert_eq!((c.bytes_read, c.bytes_written, c.requested_bytes), (64, 96, 98));
+        // 33 bytes occupy the bus for two bursts = 64 bytes = 4 cycles.
+        assert_eq!(c.latency.get(10 + 4), 1);
+    }
+
+    /// Issue `n` requests of `bytes` from rotating clients as fast as the
+    /// DRAM accepts them and drain completions; returns (cycle of the last
+    /// completion, the DRAM).
+    fn run_back_to_back(cfg: DramConfig, n: u64, bytes: u64) -> (Cycle, Dram) {
+        let mut d = Dram::new(cfg);
+        let (mut issued, mut done, mut now) = (0u64, 0u64, Cycle(0));
+        let mut last = Cycle(0);
+        loop {
+            d.tick(now);
+            while let Some((tag, _)) = d.completed(now) {
+                assert_eq!(tag, done, "completions in acceptance order");
+                done += 1;
+                last = now;
+            }
+            if done == n {
+                return (last, d);
+            }
+            if issued < n {
+                let client = Client::ALL[(issued % 4) as usize];
+                let access = if issued % 3 == 0 { Access::Write } else { Access::Read };
+                if d.request(now, client, access, bytes, issued).is_ok() {
+                    issued += 1;
+                }
+            }
+            now = now.next();
+        }
+    }
+
+    #[test]
+    fn back_to_back_requests_take_at_least_total_bytes_over_peak_cycles() {
+        for (cfg, n, bytes) in [
+            (CFG, 100, 64),
+            (CFG, 100, 8),
+            (
+                DramConfig { peak_bytes_per_cycle: 68, latency_cycles: 100, burst_bytes: 64, max_outstanding: 32 },
+                500,
+                64,
+            ),
+            (DramConfig { peak_bytes_per_cycle: 5, latency_cycles: 0, burst_bytes: 4, max_outstanding: 2 }, 50, 7),
+        ] {
+            let (last, d) = run_back_to_back(cfg, n, bytes);
+            let total = d.counters().bytes_read + d.counters().bytes_written;
+            assert_eq!(total, n * cfg.rounded(bytes));
+            let min_cycles = total.div_ceil(cfg.peak_bytes_per_cycle);
+            assert!(last.get() >= min_cycles, "{cfg:?}: {n} x {bytes} B done at {last} < {min_cycles}");
+            // And the bus is actually kept busy when requests are big enough
+            // to cover the latency with max_outstanding in flight.
+            if cfg == CFG && bytes == 64 {
+                assert!(last.get() <= min_cycles + cfg.latency_cycles + 4, "{last}");
+            }
+        }
+    }
+
+    #[test]
+    fn bytes_in_any_window_stay_under_peak() {
+        // Replay the schedule: a request's bytes occupy byte slots
+        // [start, end); count slots per cycle and check each cycle <= peak.
+        let cfg = DramConfig { peak_bytes_per_cycle: 12, latency_cycles: 2, burst_bytes: 8, max_outstanding: 16 };
+        let mut d = Dram::new(cfg);
+        let mut per_cycle = vec![0u64; 4096];
+        let mut prev_free = 0;
+        for t in 0..200u64 {
+            d.tick(Cycle(t));
+            while d.completed(Cycle(t)).is_some() {}
+            let before = d.bus_free_slot;
+            if d.request(Cycle(t), Client::ALL[(t % 4) as usize], Access::Read, 1 + t % 20, t).is_ok() {
+                let end = d.bus_free_slot;
+                let start = end - cfg.rounded(1 + t % 20);
+                assert!(start >= before.max(prev_free));
+                for slot in start..end {
+                    per_cycle[(slot / cfg.peak_bytes_per_cycle) as usize] += 1;
+                }
+                prev_free = end;
+            }
+        }
+        assert!(per_cycle.iter().all(|&b| b <= cfg.peak_bytes_per_cycle));
+    }
+
+    #[test]
+    fn per_client_counters_sum_to_the_totals() {
+        let (_, d) = run_back_to_back(CFG, 97, 40);
+        let c = d.counters();
+        assert_eq!(c.client_bytes_read.iter().sum::<u64>(), c.bytes_read);
+        assert_eq!(c.client_bytes_written.iter().sum::<u64>(), c.bytes_written);
+        assert!(c.bytes_read > 0 && c.bytes_written > 0);
+        assert_eq!(c.requests, 97);
+        assert_eq!(c.latency.count(), 97);
+        let s = d.stats();
+        let by_client: u64 =
+            Client::ALL.iter().map(|cl| s.counter(&format!("dram.bytes_read.{}", cl.name())).unwrap()).sum();
+        assert_eq!(Some(by_client), s.counter("dram.bytes_read"));
+        let by_client: u64 =
+            Client::ALL.iter().map(|cl| s.counter(&format!("dram.bytes_written.{}", cl.name())).unwrap()).sum();
+        assert_eq!(Some(by_client), s.counter("dram.bytes_written"));
+        assert_eq!(s.defs(), DRAM_STATS);
+    }
+
+    #[test]
+    fn one_request_per_cycle_and_at_most_max_outstanding() {
+        let cfg = DramConfig { max_outstanding: 2, ..CFG };
+        let mut d = Dram::new(cfg);
+        d.tick(Cycle(0));
+        assert!(d.will_accept(Cycle(0)));
+        d.request(Cycle(0), Client::Output, Access::Write, 32, 0).unwrap();
+        assert!(!d.will_accept(Cycle(0)));
+        let refused = d.request(Cycle(0), Client::TileFill, Access::Read, 32, 1);
+        assert_eq!(refused, Err(Request { client: Client::TileFill, access: Access::Read, bytes: 32, tag: 1 }));
+        d.tick(Cycle(1));
+        d.request(Cycle(1), Client::TileFill, Access::Read, 32, 1).unwrap();
+        d.tick(Cycle(2));
+        assert!(!d.will_accept(Cycle(2)), "two outstanding");
+        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 32, 2).is_err());
+        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 32, 2).is_err());
+        assert_eq!(d.counters().refused_cycles, 2);
+        // First completes at 0 + 10 + 2 = 12, second at max(11*16, 12*16 + 0)... = 14.
+        tick_to(&mut d, Cycle(3), Cycle(12));
+        assert!(!d.will_accept(Cycle(12)));
+        assert_eq!(d.completed(Cycle(12)), Some((0, Client::Output)));
+        assert!(d.will_accept(Cycle(12)));
+        assert_eq!(d.completed(Cycle(12)), None);
+        tick_to(&mut d, Cycle(13), Cycle(14));
+        assert_eq!(d.completed(Cycle(14)), Some((1, Client::TileFill)));
+        assert_eq!(d.counters().outstanding_cycles, 14);
+    }
+
+    #[test]
+    fn invalid_configs_name_the_knob() {
+        for (cfg, knob) in [
+            (DramConfig { peak_bytes_per_cycle: 0, ..CFG }, "dram_peak_bytes_per_cycle"),
+            (DramConfig { latency_cycles: 2_000_000, ..CFG }, "dram_latency_cycles"),
+            (DramConfig { burst_bytes: 48, ..CFG }, "dram_burst_bytes"),
+            (DramConfig { burst_bytes: 0, ..CFG }, "dram_burst_bytes"),
+            (DramConfig { max_outstanding: 0, ..CFG }, "dram_max_outstanding"),
+        ] {
+            let e = cfg.validate().unwrap_err();
+            assert!(e.starts_with(knob), "{e}");
+        }
+        assert_eq!(CFG.validate(), Ok(()));
+    }
+
+    #[test]
+    #[should_panic(expected = "0 bytes")]
+    fn a_zero_byte_request_panics() {
+        let mut d = Dram::new(CFG);
+        d.tick(Cycle(0));
+        let _ = d.request(Cycle(0), Client::Output, Access::Read, 0, 0);
+    }
+}

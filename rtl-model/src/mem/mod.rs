@@ -1,0 +1,16 @@
+//! Memory system: the off-chip memory the warper shares with the renderer
+//! and the display.
+//!
+//! Job: give every unit that reads or writes main memory (reference fetch,
+//! destination tile fill and write-back, output) one bandwidth- and
+//! latency-limited channel, and count its bytes per client.
+//!
+//! API: [`dram`] ([`Dram`], [`DramConfig`], [`Client`], [`Access`],
+//! [`Request`], [`DRAM_STATS`]).
+//!
+//! Rules and timing: see [`dram`]. Not modelled here: on-chip caches (the
+//! source and destination caches are units of their own).
+
+pub mod dram;
+
+pub use dram::{Access, Client, DRAM_STATS, Dram, DramConfig, Request};
