@@ -3,80 +3,16 @@
 //! fronto-parallel layers (as in `golden_rules.rs`) and bounded planes in
 //! any orientation.
 
-use glam::{DQuat, DVec3};
+use glam::DVec3;
 use postwarp::golden::config::{GoldenConfig, Reconstruction};
 use postwarp::golden::frame::{GoldenFrame, GoldenStats, prepare_reference, warp_frame};
 use postwarp::golden::general::{GeneralOptions, warp_reference_general_with};
 use postwarp::golden::planes::DestPlanes;
 use postwarp::golden::transform::WarpContext;
-use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose, SampleImage};
+use postwarp_rtl::{Camera, FrameCommands, Pose, SampleImage};
 
-/// A fronto-parallel rectangle at depth `z`, `x0 <= X < x1`, all Y.
-#[derive(Clone, Copy)]
-struct Layer {
-    z: f64,
-    x0: f64,
-    x1: f64,
-    colour: fn(f64) -> [f32; 3],
-}
-
-fn grey_stripes(x: f64) -> [f32; 3] {
-    let v = if (x * 4.0).floor() as i64 % 2 == 0 { 0.3 } else { 0.5 };
-    [v, v, v]
-}
-
-fn red(_: f64) -> [f32; 3] {
-    [1.0, 0.0, 0.0]
-}
-
-const RED: [f32; 3] = [1.0, 0.0, 0.0];
-
-fn camera(w: u32, h: u32, pos: DVec3) -> Camera {
-    Camera {
-        intrinsics: Intrinsics {
-            width: w,
-            height: h,
-            fx: 50.0,
-            fy: 50.0,
-            cx: (w as f64 - 1.0) / 2.0,
-            cy: (h as f64 - 1.0) / 2.0,
-        },
-        pose: Pose { position: pos, orientation: DQuat::IDENTITY },
-    }
-}
-
-fn at_x(w: u32, h: u32, x: f64) -> Camera {
-    camera(w, h, DVec3::new(x, 0.0, 0.0))
-}
-
-/// Ray cast the layers from `cam` (identity orientation) at `ss x ss`
-/// samples per pixel.
-fn render(cam: &Camera, ss: u32, layers: &[Layer]) -> SampleImage {
-    let s = cam.sample_grid(ss);
-    let k = s.intrinsics;
-    let mut img = SampleImage::empty(k.width, k.height);
-    for y in 0..k.height {
-        for x in 0..k.width {
-            let d = s.ray_direction(x as f64, y as f64);
-            let mut best: Option<(f64, usize)> = None;
-            for (n, l) in layers.iter().enumerate() {
-                let t = l.z - s.pose.position.z;
-                let wx = s.pose.position.x + d.x * t;
-                if t > 0.0 && wx >= l.x0 && wx < l.x1 && best.is_none_or(|(bt, _)| t < bt) {
-                    best = Some((t, n));
-                }
-            }
-            if let Some((t, n)) = best {
-                let i = img.index(x, y);
-                img.z[i] = t as f32;
-                img.colour[i] = (layers[n].colour)(s.pose.position.x + d.x * t);
-                img.object_id[i] = n as u32 + 1;
-                img.valid.set(i, true);
-            }
-        }
-    }
-    img
-}
+mod common;
+use common::*;
 
 /// A bounded plane: `centre + a·u + b·v`, `|a| <= hu`, `|b| <= hv`.
 #[derive(Clone, Copy)]

@@ -2,74 +2,16 @@
 //! fronto-parallel layers, ray cast exactly by a few lines here, so the
 //! expected images are known independently of the warper and the renderer.
 
-use glam::{DQuat, DVec3};
 use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{prepare_reference, warp_frame};
-use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose, SampleImage};
+use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 
-/// A fronto-parallel rectangle at depth `z`, `x0 <= X < x1`, all Y.
-#[derive(Clone, Copy)]
-struct Layer {
-    z: f64,
-    x0: f64,
-    x1: f64,
-    colour: fn(f64) -> [f32; 3],
-}
-
-fn grey_stripes(x: f64) -> [f32; 3] {
-    let v = if (x * 4.0).floor() as i64 % 2 == 0 { 0.3 } else { 0.5 };
-    [v, v, v]
-}
-
-fn red(_: f64) -> [f32; 3] {
-    [1.0, 0.0, 0.0]
-}
+mod common;
+use common::*;
 
 fn blue_to_green(x: f64) -> [f32; 3] {
     let t = (x * 0.5 + 0.5).clamp(0.0, 1.0) as f32;
     [0.0, t, 1.0 - t]
-}
-
-fn camera(w: u32, h: u32, x: f64) -> Camera {
-    Camera {
-        intrinsics: Intrinsics {
-            width: w,
-            height: h,
-            fx: 50.0,
-            fy: 50.0,
-            cx: (w as f64 - 1.0) / 2.0,
-            cy: (h as f64 - 1.0) / 2.0,
-        },
-        pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
-    }
-}
-
-/// Ray cast the layers from `cam` at `ss x ss` samples per pixel.
-fn render(cam: &Camera, ss: u32, layers: &[Layer]) -> SampleImage {
-    let s = cam.sample_grid(ss);
-    let k = s.intrinsics;
-    let mut img = SampleImage::empty(k.width, k.height);
-    for y in 0..k.height {
-        for x in 0..k.width {
-            let d = s.ray_direction(x as f64, y as f64);
-            let mut best: Option<(f64, usize)> = None;
-            for (n, l) in layers.iter().enumerate() {
-                let t = l.z; // camera z = 1 per unit t, identity orientation
-                let wx = s.pose.position.x + d.x * t;
-                if wx >= l.x0 && wx < l.x1 && best.is_none_or(|(bt, _)| t < bt) {
-                    best = Some((t, n));
-                }
-            }
-            if let Some((t, n)) = best {
-                let i = img.index(x, y);
-                img.z[i] = t as f32;
-                img.colour[i] = (layers[n].colour)(s.pose.position.x + d.x * t);
-                img.object_id[i] = n as u32 + 1;
-                img.valid.set(i, true);
-            }
-        }
-    }
-    img
 }
 
 fn background() -> Layer {
@@ -92,7 +34,7 @@ fn run(
 #[test]
 fn derived_frame_at_the_reference_camera_reproduces_it_exactly() {
     let cfg = GoldenConfig::default();
-    let cam = camera(24, 16, 0.0);
+    let cam = at_x(24, 16, 0.0);
     let layers = [background(), Layer { z: 5.0, x0: -0.3, x1: 0.2, colour: red }];
     let img = render(&cam, 2, &layers);
     let prepared = prepare_reference(&img, 2, &cfg).samples;
@@ -114,7 +56,7 @@ fn without_the_abuffer_the_identity_warp_returns_the_original_samples() {
     // averaged (by design, as in TR98's test-bed); without it, every sample
     // comes back exactly.
     let cfg = GoldenConfig { abuffer_fragments: 0, ..GoldenConfig::default() };
-    let cam = camera(24, 16, 0.0);
+    let cam = at_x(24, 16, 0.0);
     let img = render(&cam, 2, &[background(), Layer { z: 5.0, x0: -0.3, x1: 0.2, colour: red }]);
     let out = run(&cam, &[(cam, img.clone())], 2, &cfg);
     assert_eq!(out.samples.colour, img.colour);
@@ -127,7 +69,7 @@ fn without_the_abuffer_the_identity_warp_returns_the_original_samples() {
 fn a_translated_plane_lands_where_the_equation_says() {
     // f = 50 px at 2x2 → 100 samples; Z = 10, B = 0.2 → shift 100·0.2/10 = 2 samples left.
     let cfg = GoldenConfig { hole_fill: false, ..GoldenConfig::default() };
-    let (r, d) = (camera(24, 16, 0.0), camera(24, 16, 0.2));
+    let (r, d) = (at_x(24, 16, 0.0), at_x(24, 16, 0.2));
     let img = render(&r, 2, &[background()]);
     let prepared = prepare_reference(&img, 2, &cfg).samples;
     let out = run(&d, &[(r, img)], 2, &cfg);
@@ -148,7 +90,7 @@ fn a_one_sample_wide_line_survives_the_warp() {
     // Plate 3: a red line one sample wide (0.01 at Z = 5 is 0.2 px = 0.4
     // samples... use exactly one sample: width 5/100 = 0.05).
     let cfg = GoldenConfig::default();
-    let (r, d) = (camera(24, 16, 0.0), camera(24, 16, 0.037));
+    let (r, d) = (at_x(24, 16, 0.0), at_x(24, 16, 0.037));
     let line = Layer { z: 5.0, x0: 0.0, x1: 0.05, colour: red };
     let img = render(&r, 2, &[background(), line]);
     let red_in = |s: &[[f32; 3]], w: usize, y: usize| (0..w).filter(|&x| s[y * w + x] == [1.0, 0.0, 0.0]).count();
@@ -167,7 +109,7 @@ fn a_disocclusion_is_filled_from_the_background_side() {
     // left more than the background (Z = 10): a hole opens at the box's right
     // edge. It must be filled from the background there (blue-green), never red.
     let cfg = GoldenConfig::default();
-    let (r, d) = (camera(32, 16, 0.0), camera(32, 16, 0.1));
+    let (r, d) = (at_x(32, 16, 0.0), at_x(32, 16, 0.1));
     let bg = Layer { z: 10.0, x0: -100.0, x1: 100.0, colour: blue_to_green };
     let fg = Layer { z: 2.0, x0: -0.2, x1: 0.1, colour: red };
     let out = run(&d, &[(r, render(&r, 2, &[bg, fg]))], 2, &cfg);
@@ -189,9 +131,9 @@ fn two_references_cover_each_others_holes() {
     let cfg = GoldenConfig::default();
     // References left and right of the derived camera, with a wider field
     // of view so the derived frame's borders are seen too.
-    let wide = |x: f64| camera(44, 16, x);
+    let wide = |x: f64| at_x(44, 16, x);
     let (a, b) = (wide(-0.1), wide(0.1));
-    let d = camera(32, 16, 0.0);
+    let d = at_x(32, 16, 0.0);
     let bg = Layer { z: 10.0, x0: -100.0, x1: 100.0, colour: blue_to_green };
     let fg = Layer { z: 2.0, x0: -0.2, x1: 0.1, colour: red };
     let one = run(&d, &[(a, render(&a, 2, &[bg, fg]))], 2, &cfg);

@@ -128,20 +128,27 @@ impl WarpContext {
 
     /// The warp's Jacobian on the sample's surface plane (rule 6) and the
     /// reference-space gradient `g` of the derived 1/Z (rule 3).
-    fn local(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> (DMat2, DVec2) {
+    /// The warp's numerator `N`, its derivatives along reference x and y,
+    /// and the disparity `δ` with its slopes, at a sample.
+    fn numerator(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> (DVec3, DVec3, DVec3, [f64; 3]) {
         let s = &self.setup;
         let d = s.s1 * inv_z;
         let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
         let n = s.h * DVec3::new(x, y, 1.0) + s.e_hat * d;
         let nx = s.h.x_axis + s.e_hat * dx;
         let ny = s.h.y_axis + s.e_hat * dy;
+        (n, nx, ny, [d, dx, dy])
+    }
+
+    fn local(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> (DMat2, DVec2) {
+        let (n, nx, ny, [d, dx, dy]) = self.numerator(x, y, inv_z, slopes);
         let w = n.z;
         let (xp, yp) = (n.x / w, n.y / w);
         let j = DMat2::from_cols(
             DVec2::new((nx.x - xp * nx.z) / w, (nx.y - yp * nx.z) / w),
             DVec2::new((ny.x - xp * ny.z) / w, (ny.y - yp * ny.z) / w),
         );
-        let g = DVec2::new((dx * w - d * nx.z) / (w * w), (dy * w - d * ny.z) / (w * w)) / s.s2;
+        let g = DVec2::new((dx * w - d * nx.z) / (w * w), (dy * w - d * ny.z) / (w * w)) / self.setup.s2;
         (j, g)
     }
 
@@ -163,12 +170,7 @@ impl WarpContext {
     /// reference-space gradient `g = G/(W²·s2)`, `J⁻ᵀ·g = M⁻ᵀ·G/(W·s2)`,
     /// solved by Cramer's rule with a single division.
     pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
-        let s = &self.setup;
-        let d = s.s1 * inv_z;
-        let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
-        let n = s.h * DVec3::new(x, y, 1.0) + s.e_hat * d;
-        let nx = s.h.x_axis + s.e_hat * dx;
-        let ny = s.h.y_axis + s.e_hat * dy;
+        let (n, nx, ny, [d, dx, dy]) = self.numerator(x, y, inv_z, slopes);
         let w = n.z;
         let inv_w = 1.0 / w;
         let (xp, yp) = (n.x * inv_w, n.y * inv_w);
@@ -180,7 +182,7 @@ impl WarpContext {
         if !det.is_finite() || det.abs() < 1e-12 * w * w {
             return [0.0, 0.0];
         }
-        let k = 1.0 / (det * w * s.s2);
+        let k = 1.0 / (det * w * self.setup.s2);
         let v = [(gx * m11 - m10 * gy) * k, (m00 * gy - m01 * gx) * k];
         if v[0].is_finite() && v[1].is_finite() { v } else { [0.0, 0.0] }
     }

@@ -1,0 +1,75 @@
+//! Exact little scenes for the golden-model tests: fronto-parallel layers
+//! ray cast in a few lines, so expected images are known independently of
+//! the warper and of the scene renderer. Shared by `golden_rules.rs` and
+//! `golden_general.rs`.
+#![allow(dead_code)]
+
+use glam::{DQuat, DVec3};
+use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
+
+/// A fronto-parallel rectangle at depth `z`, `x0 <= X < x1`, all Y.
+#[derive(Clone, Copy)]
+pub struct Layer {
+    pub z: f64,
+    pub x0: f64,
+    pub x1: f64,
+    pub colour: fn(f64) -> [f32; 3],
+}
+
+pub fn grey_stripes(x: f64) -> [f32; 3] {
+    let v = if (x * 4.0).floor() as i64 % 2 == 0 { 0.3 } else { 0.5 };
+    [v, v, v]
+}
+
+pub fn red(_: f64) -> [f32; 3] {
+    [1.0, 0.0, 0.0]
+}
+
+pub const RED: [f32; 3] = [1.0, 0.0, 0.0];
+
+pub fn camera(w: u32, h: u32, pos: DVec3) -> Camera {
+    Camera {
+        intrinsics: Intrinsics {
+            width: w,
+            height: h,
+            fx: 50.0,
+            fy: 50.0,
+            cx: (w as f64 - 1.0) / 2.0,
+            cy: (h as f64 - 1.0) / 2.0,
+        },
+        pose: Pose { position: pos, orientation: DQuat::IDENTITY },
+    }
+}
+
+pub fn at_x(w: u32, h: u32, x: f64) -> Camera {
+    camera(w, h, DVec3::new(x, 0.0, 0.0))
+}
+
+/// Ray cast the layers from `cam` (identity orientation) at `ss x ss`
+/// samples per pixel.
+pub fn render(cam: &Camera, ss: u32, layers: &[Layer]) -> SampleImage {
+    let s = cam.sample_grid(ss);
+    let k = s.intrinsics;
+    let mut img = SampleImage::empty(k.width, k.height);
+    for y in 0..k.height {
+        for x in 0..k.width {
+            let d = s.ray_direction(x as f64, y as f64);
+            let mut best: Option<(f64, usize)> = None;
+            for (n, l) in layers.iter().enumerate() {
+                let t = l.z - s.pose.position.z;
+                let wx = s.pose.position.x + d.x * t;
+                if t > 0.0 && wx >= l.x0 && wx < l.x1 && best.is_none_or(|(bt, _)| t < bt) {
+                    best = Some((t, n));
+                }
+            }
+            if let Some((t, n)) = best {
+                let i = img.index(x, y);
+                img.z[i] = t as f32;
+                img.colour[i] = (layers[n].colour)(s.pose.position.x + d.x * t);
+                img.object_id[i] = n as u32 + 1;
+                img.valid.set(i, true);
+            }
+        }
+    }
+    img
+}
