@@ -306,6 +306,9 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
                     });
                 }
             }
+            if one_plane_fast_path(d, &views[..ss * ss], &idx[..ss * ss], p, stats) {
+                continue;
+            }
             compress_pixel(&views[..ss * ss], p, stats, &mut sc);
             // Pixels do not overlap: write this one back at once.
             for (k, &i) in idx[..ss * ss].iter().enumerate() {
@@ -328,6 +331,66 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
             }
         }
     }
+}
+
+/// The common pixel: every sample real, from one source, on the first
+/// sample's plane (rule 1). It compresses to one fragment, computed here with
+/// exactly the arithmetic of [`compress_pixel`] and written back without
+/// touching the planes that cannot change (kind, source). Returns false,
+/// changing nothing, for any other pixel.
+fn one_plane_fast_path(
+    d: &mut DestPlanes,
+    views: &[Option<SampleView>],
+    idx: &[usize],
+    p: &AbufferParams,
+    stats: &mut AbufferStats,
+) -> bool {
+    let Some(Some(s0)) = views.first() else { return false };
+    if !s0.real {
+        return false;
+    }
+    let (ox0, oy0) = (offset(p.ss, 0), offset(p.ss, 0));
+    let f = Fragment {
+        colour: [0.0; 3],
+        inv_z: s0.inv_z - s0.slopes[0] * ox0 - s0.slopes[1] * oy0,
+        slopes: s0.slopes,
+        mask: 0,
+        real: true,
+        key: s0.key,
+        weight: 0.0,
+    };
+    let slope_term = p.slope_tol * (f.slopes[0].abs() + f.slopes[1].abs()) as f64;
+    let mut sum = [0.0f64; 3];
+    let mut wsum = 0.0f64;
+    for (k, v) in views.iter().enumerate() {
+        let Some(s) = v else { return false };
+        if !s.real || s.key != f.key {
+            return false;
+        }
+        if k > 0 {
+            let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+            let pred = plane_at(&f, ox, oy) as f64;
+            if (pred - s.inv_z as f64).abs() > slope_term + p.rel_tol * s.inv_z as f64 {
+                return false;
+            }
+        }
+        for (acc, v) in sum.iter_mut().zip(s.colour) {
+            *acc += v as f64;
+        }
+        wsum += s.weight as f64;
+    }
+    stats.record(1);
+    let n = views.len() as f64;
+    let colour = sum.map(|c| (c / n) as f32);
+    let weight = (wsum / n) as f32;
+    for (k, &i) in idx.iter().enumerate() {
+        let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+        d.colour[i] = colour;
+        d.inv_z[i] = plane_at(&f, ox, oy);
+        d.slopes[i] = f.slopes;
+        d.fill_weight[i] = weight;
+    }
+    true
 }
 
 /// The coverage masks of a compressed pixel partition its covered samples.
@@ -432,6 +495,34 @@ mod tests {
         let frags = compress_reference_pixel(&img, 0, 0, &params(3));
         assert_eq!(frags.len(), 3);
         assert!(masks_partition(&frags, 0b1111));
+    }
+
+    #[test]
+    fn a_planar_single_source_pixel_becomes_one_fragment() {
+        // Four real samples of one source on the plane 1/Z = 0.5 + 0.01·x − 0.02·y
+        // (sample offsets ±0.5): the fast path must give the coverage mean colour
+        // and the plane's values, exactly as the general grouping would.
+        let mut d = DestPlanes::new(2, 2);
+        let inv_z = |k: usize| 0.5 + 0.01 * offset(2, k as u32 % 2) - 0.02 * offset(2, k as u32 / 2);
+        for k in 0..4 {
+            d.real.set(k, true);
+            d.source[k] = 1;
+            d.colour[k] = [k as f32 / 4.0, 0.5, 1.0];
+            d.inv_z[k] = inv_z(k);
+            d.slopes[k] = [0.01, -0.02];
+        }
+        let mut st = AbufferStats::default();
+        round_trip_dest(&mut d, &params(3), &mut st);
+        assert_eq!(st.fragments_per_pixel, vec![0, 1]);
+        for k in 0..4 {
+            assert_eq!(d.colour[k], [0.375, 0.5, 1.0]);
+            assert!((d.inv_z[k] - inv_z(k)).abs() < 1e-7);
+            assert!(d.real[k] && !d.hole[k] && d.source[k] == 1);
+        }
+        // One sample off the plane: two fragments (general path).
+        d.inv_z[3] = 0.9;
+        round_trip_dest(&mut d, &params(3), &mut st);
+        assert_eq!(st.fragments_per_pixel, vec![0, 1, 1]);
     }
 
     #[test]
