@@ -94,6 +94,18 @@ struct SampleView {
     weight: f32,
 }
 
+/// Reference sample `i` as the A-buffer sees it (`None`: no surface).
+fn reference_view(img: &SampleImage, i: usize) -> Option<SampleView> {
+    img.valid[i].then(|| SampleView {
+        colour: img.colour[i],
+        inv_z: 1.0 / img.z[i],
+        slopes: img.inv_z_slopes[i],
+        real: true,
+        key: img.object_id[i],
+        weight: 0.0,
+    })
+}
+
 /// Compression parameters.
 #[derive(Clone, Copy, Debug)]
 pub struct AbufferParams {
@@ -243,16 +255,7 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
     let mut sc = PixelScratch::default();
     for_each_pixel(img.width, img.height, p.ss, |_, _, idx| {
         views.clear();
-        views.extend(idx.iter().map(|&i| {
-            img.valid[i].then(|| SampleView {
-                colour: img.colour[i],
-                inv_z: 1.0 / img.z[i],
-                slopes: img.inv_z_slopes[i],
-                real: true,
-                key: img.object_id[i],
-                weight: 0.0,
-            })
-        }));
+        views.extend(idx.iter().map(|&i| reference_view(img, i)));
         compress_pixel(&views, p, stats, &mut sc);
         for f in &sc.out {
             for (k, &i) in idx.iter().enumerate() {
@@ -411,14 +414,7 @@ pub fn compress_reference_pixel(img: &SampleImage, px: u32, py: u32, p: &Abuffer
     for j in 0..p.ss {
         for i in 0..p.ss {
             let k = img.index(px * p.ss + i, py * p.ss + j);
-            views.push(img.valid[k].then(|| SampleView {
-                colour: img.colour[k],
-                inv_z: 1.0 / img.z[k],
-                slopes: img.inv_z_slopes[k],
-                real: true,
-                key: img.object_id[k],
-                weight: 0.0,
-            }));
+            views.push(reference_view(img, k));
         }
     }
     let mut sc = PixelScratch::default();
