@@ -108,6 +108,24 @@ pub struct EngineConfig {
     pub views: u32,
     /// Reference frames warped per derived frame (references).
     pub references_per_frame: u32,
+    /// Discontinuity threshold: neighbours are one surface iff their warped
+    /// distance is at most this times the expected spacing (ratio; TR98
+    /// 1.4 for the plates, 2.3 for the video).
+    pub threshold: f64,
+    /// Z tolerance, slope term (1): tol = slope_tol·|slopes|₁ + rel_tol·1/Z.
+    pub slope_tol: f64,
+    /// Z tolerance, relative term (fraction of 1/Z).
+    pub rel_tol: f64,
+    /// Margin of the better-reference test (fraction).
+    pub better_margin: f64,
+    /// Hole-fill distance past which the two far taps join (samples).
+    pub hole_far_distance: u32,
+    /// Offset of the far hole-fill taps along the line (samples).
+    pub hole_far_offset: u32,
+    /// Saturation of the 6-bit hole-fill distance plane (samples).
+    pub hole_max_distance: u32,
+    /// Derived samples the hole-fill unit visits per cycle (samples/cycle).
+    pub hole_fill_per_cycle: u32,
 }
 
 /// (name, unit, description) of every knob, in field order, for reports and
@@ -132,6 +150,22 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ("display_height", "pixels", "display height per view"),
     ("views", "views", "views rendered per frame time by the one warper (2 = stereo HMD)"),
     ("references_per_frame", "references", "reference frames warped per derived frame"),
+    (
+        "threshold",
+        "ratio of E",
+        "discontinuity threshold: one surface iff warped distance <= threshold x expected spacing",
+    ),
+    ("slope_tol", "1", "Z tolerance slope term: tol = slope_tol x |slopes|_1 + rel_tol x 1/Z"),
+    ("rel_tol", "fraction of 1/Z", "Z tolerance relative term"),
+    (
+        "better_margin",
+        "fraction",
+        "another reference is better only if its |cos| of view angle is larger by this fraction",
+    ),
+    ("hole_far_distance", "samples", "hole-fill distance past which the two far taps join"),
+    ("hole_far_offset", "samples", "offset of the far hole-fill taps along the previous line"),
+    ("hole_max_distance", "samples", "saturation of the 6-bit hole-fill distance plane"),
+    ("hole_fill_per_cycle", "samples/cycle", "derived samples the hole-fill unit visits per cycle"),
 ];
 
 impl Default for EngineConfig {
@@ -157,6 +191,14 @@ impl Default for EngineConfig {
             display_height: 480,
             views: 1,
             references_per_frame: 2,
+            threshold: 1.4,
+            slope_tol: 2.0,
+            rel_tol: 0.01,
+            better_margin: 0.05,
+            hole_far_distance: 4,
+            hole_far_offset: 4,
+            hole_max_distance: 63,
+            hole_fill_per_cycle: 1,
         }
     }
 }
@@ -222,6 +264,35 @@ impl EngineConfig {
         range("display_height", self.display_height.into(), 1, 16384, "pixels")?;
         range("views", self.views.into(), 1, 8, "views")?;
         range("references_per_frame", self.references_per_frame.into(), 1, 16, "references")?;
+        let real = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v}: expected {lo} to {hi} {unit}"))
+            }
+        };
+        real("threshold", self.threshold, 0.01, 100.0, "(ratio of E)")?;
+        real("slope_tol", self.slope_tol, 0.0, 1000.0, "(ratio)")?;
+        real("rel_tol", self.rel_tol, 0.0, 1.0, "(fraction of 1/Z)")?;
+        real("better_margin", self.better_margin, 0.0, 10.0, "(fraction)")?;
+        range("hole_far_distance", self.hole_far_distance.into(), 1, 63, "samples")?;
+        range("hole_far_offset", self.hole_far_offset.into(), 1, 64, "samples")?;
+        range("hole_max_distance", self.hole_max_distance.into(), 1, 255, "samples")?;
+        range("hole_fill_per_cycle", self.hole_fill_per_cycle.into(), 1, 256, "samples/cycle")?;
+        if self.kernel_limit > self.tile_size {
+            return Err(format!(
+                "kernel_limit = {}: expected at most tile_size ({}) so that one stamp touches at most 4 tiles",
+                self.kernel_limit, self.tile_size
+            ));
+        }
+        let tiles = self.dest_cache_bytes / tile_bytes;
+        if tiles < 8 {
+            return Err(format!(
+                "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): a stamp and the hole-fill taps need them at once",
+                self.dest_cache_bytes,
+                8 * tile_bytes
+            ));
+        }
         Ok(())
     }
 }
@@ -269,7 +340,7 @@ mod tests {
             ("transform_latency", |c| c.transform_latency = 0),
             ("transform_throughput", |c| c.transform_throughput = 0),
             ("tile_size", |c| c.tile_size = 0),
-            ("dest_cache_bytes", |c| c.dest_cache_bytes = 8 * 8 * 16 - 1),
+            ("dest_cache_bytes", |c| c.dest_cache_bytes = 8 * 8 * 16 * 8 - 1),
             ("source_cache_bytes", |c| c.source_cache_bytes = 0),
             ("dram_peak_bytes_per_cycle", |c| c.dram_peak_bytes_per_cycle = 0),
             ("dram_latency_cycles", |c| c.dram_latency_cycles = u64::MAX),
@@ -281,6 +352,14 @@ mod tests {
             ("display_height", |c| c.display_height = 20_000),
             ("views", |c| c.views = 0),
             ("references_per_frame", |c| c.references_per_frame = 0),
+            ("threshold", |c| c.threshold = -1.0),
+            ("slope_tol", |c| c.slope_tol = f64::INFINITY),
+            ("rel_tol", |c| c.rel_tol = 2.0),
+            ("better_margin", |c| c.better_margin = f64::NAN),
+            ("hole_far_distance", |c| c.hole_far_distance = 0),
+            ("hole_far_offset", |c| c.hole_far_offset = 0),
+            ("hole_max_distance", |c| c.hole_max_distance = 256),
+            ("hole_fill_per_cycle", |c| c.hole_fill_per_cycle = 0),
         ]
     }
 

@@ -178,6 +178,22 @@ impl<T> Fifo<T> {
         self.items.pop_front().map(|(_, item)| item)
     }
 
+    /// The oldest item, visible or still in transit.
+    pub fn oldest(&self) -> Option<&T> {
+        self.items.front().map(|(_, item)| item)
+    }
+
+    /// The oldest item, visible or not, for in-place updates by the
+    /// consumer that will pop it (e.g. marking a retry).
+    pub fn oldest_mut(&mut self) -> Option<&mut T> {
+        self.items.front_mut().map(|(_, item)| item)
+    }
+
+    /// The cycle at which the oldest item becomes (or became) visible.
+    pub fn next_visible(&self) -> Option<Cycle> {
+        self.items.front().map(|&(ready, _)| ready)
+    }
+
     /// Debug check that `now` is not before the latest push or pop.
     fn check_time(&self, now: Cycle) {
         debug_assert!(now >= self.last_now, "Fifo used at cycle {now} after cycle {}", self.last_now);

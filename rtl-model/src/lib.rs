@@ -14,12 +14,18 @@ pub mod camera;
 pub mod clock;
 pub mod cmd;
 pub mod config;
+pub mod dest_frame;
+pub mod engine;
 pub mod fifo;
 pub mod fixed;
 pub mod mem;
 pub mod sample_image;
+pub mod schedule;
 pub mod stats;
+pub mod traversal;
+pub mod units;
 
 pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
 pub use cmd::{FrameCommands, ReferenceWarp};
+pub use dest_frame::DestFrame;
 pub use sample_image::SampleImage;

@@ -5,6 +5,7 @@ mod golden;
 mod import;
 mod info;
 mod make_trace;
+mod simulate;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -35,6 +36,10 @@ enum Command {
     /// frames as PNG and EXR, hole masks, difference heat-maps, report.json
     /// and a table of quality against ground truth.
     Golden(golden::Args),
+    /// Run the cycle-level hardware model on a trace beside the golden
+    /// model: derived frames as PNG, cycles, DRAM bytes per client, cache
+    /// hits and misses, unit utilisation, report.json and a summary.
+    Simulate(simulate::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -56,5 +61,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::MakeTrace(a) => make_trace::run(a),
         Command::ImportMiddlebury(a) => import::run(a),
         Command::Golden(a) => golden::run(a),
+        Command::Simulate(a) => simulate::run(a),
     }
 }

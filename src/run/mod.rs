@@ -2,3 +2,6 @@
 //! report files. One file per engine run.
 
 pub mod golden;
+pub mod hw_config;
+pub mod hw_config_toml;
+pub mod simulate;

@@ -262,6 +262,24 @@ impl Dram {
         }
     }
 
+    /// Jump from the current cycle to `now`, as if `tick` had been called
+    /// for every cycle in between, when the caller knows nothing completes
+    /// before `now` (an idle stretch: see [`Dram::next_completion`]).
+    pub fn skip_to(&mut self, now: Cycle) {
+        let prev = self.now.expect("skip_to before the first tick");
+        debug_assert!(now > prev, "skip_to({now}) from {prev}");
+        debug_assert!(self.next_completion().is_none_or(|c| c >= now), "a completion would be skipped");
+        if !self.in_flight.is_empty() {
+            self.counters.outstanding_cycles += now - prev;
+        }
+        self.now = Some(now);
+    }
+
+    /// The cycle from which the oldest outstanding request completes.
+    pub fn next_completion(&self) -> Option<Cycle> {
+        self.in_flight.front().map(|f| f.done)
+    }
+
     /// True if a request at `now` would be accepted.
     pub fn will_accept(&self, now: Cycle) -> bool {
         self.check_now(now);

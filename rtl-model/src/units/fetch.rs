@@ -1,0 +1,196 @@
+//! Reference fetch: reads a reference frame in A-buffer format from DRAM
+//! through the software-managed source cache and expands its fragments to
+//! super-samples, in the order of the schedule's fetch intervals
+//! (`crate::schedule`).
+//!
+//! Job: stream the samples of each fetch interval to the transform unit;
+//! keep the reference blocks they come from on chip.
+//!
+//! Ports: out, samples `(x, y, 1/Z, slopes)` to the transform unit
+//! (`transform_throughput` per cycle); memory, block reads
+//! ([`crate::mem::Client::ReferenceFetch`]).
+//!
+//! Rules:
+//! 1. The reference is stored in blocks of `B x B` pixels,
+//!    `B = tile_size / supersample`; a block's bytes are its fragments and
+//!    headers in the A-buffer memory format (`units::abuffer`).
+//! 2. The source cache holds whole blocks, up to `source_cache_bytes` of
+//!    their actual (packed) size, replacing the least recently used.
+//! 3. Prefetch: when the fetch unit starts an interval it queues the reads
+//!    of every block of that interval and of the next one that is neither
+//!    on chip nor on its way ("software-managed": the schedule is known).
+//! 4. A sample is streamed only when its block is on chip; samples with no
+//!    surface have no fragment and cost no cycle.
+//!
+//! Not modelled: the expander's internal buffering (a fragment expands to
+//! its covered samples with no delay), compression of the stream.
+
+use crate::schedule::FetchInterval;
+use crate::traversal::Major;
+
+/// State of one reference block in the source cache.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockState {
+    /// Not on chip.
+    Absent,
+    /// Read queued or in flight.
+    Requested,
+    /// On chip.
+    Resident,
+}
+
+/// Event counts (units: counts).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct SourceCacheCounters {
+    /// Block reads (misses, including prefetches).
+    pub block_reads: u64,
+    /// Blocks evicted to make room.
+    pub evictions: u64,
+    /// Cycles the fetch unit waited for a block.
+    pub wait_cycles: u64,
+}
+
+/// The source cache's tags over a reference's block grid.
+#[derive(Clone, Debug)]
+pub struct SourceCache {
+    /// Block side (pixels).
+    pub block_pixels: u32,
+    /// Super-samples per pixel per axis.
+    pub ss: u32,
+    /// Blocks per row and column.
+    pub blocks: (u32, u32),
+    capacity: u64,
+    used: u64,
+    state: Vec<BlockState>,
+    bytes: Vec<u64>,
+    last_use: Vec<u64>,
+    resident: Vec<u32>,
+    /// Counters.
+    pub counters: SourceCacheCounters,
+}
+
+impl SourceCache {
+    /// A cache of `capacity` bytes over a reference of `w x h` samples in
+    /// blocks of `block_pixels` pixels whose packed sizes are
+    /// `bytes(block_x, block_y)`.
+    pub fn new(capacity: u64, w: u32, h: u32, ss: u32, block_pixels: u32, bytes: impl Fn(u32, u32) -> u64) -> Self {
+        let side = block_pixels * ss;
+        let blocks = (w.div_ceil(side), h.div_ceil(side));
+        let n = (blocks.0 * blocks.1) as usize;
+        let mut b = Vec::with_capacity(n);
+        for by in 0..blocks.1 {
+            for bx in 0..blocks.0 {
+                b.push(bytes(bx, by));
+            }
+        }
+        SourceCache {
+            block_pixels,
+            ss,
+            blocks,
+            capacity,
+            used: 0,
+            state: vec![BlockState::Absent; n],
+            bytes: b,
+            last_use: vec![0; n],
+            resident: Vec::new(),
+            counters: SourceCacheCounters::default(),
+        }
+    }
+
+    /// The block holding sample `(x, y)`.
+    pub fn block_of(&self, x: u32, y: u32) -> u32 {
+        let side = self.block_pixels * self.ss;
+        (y / side) * self.blocks.0 + x / side
+    }
+
+    /// Packed bytes of block `b`.
+    pub fn bytes(&self, b: u32) -> u64 {
+        self.bytes[b as usize]
+    }
+
+    /// State of block `b`.
+    pub fn state(&self, b: u32) -> BlockState {
+        self.state[b as usize]
+    }
+
+    /// Blocks of an interval, in streaming order, without repeats.
+    pub fn blocks_of(&self, iv: &FetchInterval, mut f: impl FnMut(u32)) {
+        let side = self.block_pixels * self.ss;
+        let (a, b) = (iv.lo / side, iv.hi / side);
+        let mut each = |k: u32| match iv.major {
+            Major::Row => f((iv.line / side) * self.blocks.0 + k),
+            Major::Column => f(k * self.blocks.0 + iv.line / side),
+        };
+        if iv.step > 0 {
+            (a..=b).for_each(&mut each);
+        } else {
+            (a..=b).rev().for_each(&mut each);
+        }
+    }
+
+    /// Mark block `b` requested (rule 3): the caller queues the read.
+    /// Returns false if it is already on chip or on its way.
+    pub fn request(&mut self, b: u32) -> bool {
+        if self.state[b as usize] != BlockState::Absent {
+            return false;
+        }
+        self.state[b as usize] = BlockState::Requested;
+        self.counters.block_reads += 1;
+        true
+    }
+
+    /// Block `b` has arrived at `now`: make room (rule 2) and keep it.
+    pub fn arrived(&mut self, b: u32, now: u64) {
+        let need = self.bytes[b as usize];
+        while self.used + need > self.capacity && !self.resident.is_empty() {
+            let (k, _) = self
+                .resident
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, r)| (self.last_use[**r as usize], **r))
+                .expect("not empty");
+            let v = self.resident.swap_remove(k);
+            self.used -= self.bytes[v as usize];
+            self.state[v as usize] = BlockState::Absent;
+            self.counters.evictions += 1;
+        }
+        self.used += need;
+        self.state[b as usize] = BlockState::Resident;
+        self.last_use[b as usize] = now;
+        self.resident.push(b);
+    }
+
+    /// Read sample data from block `b` at `now`: true if on chip.
+    pub fn touch(&mut self, b: u32, now: u64) -> bool {
+        if self.state[b as usize] == BlockState::Resident {
+            self.last_use[b as usize] = now;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lru_by_bytes_and_block_walk() {
+        // 32x8 samples, ss 2, 4-pixel blocks: 8-sample blocks, 4x1 grid.
+        let mut c = SourceCache::new(250, 32, 8, 2, 4, |bx, _| 100 + bx as u64);
+        assert_eq!(c.blocks, (4, 1));
+        let iv = FetchInterval { major: Major::Row, line: 3, lo: 5, hi: 20, step: -1 };
+        let mut seen = vec![];
+        c.blocks_of(&iv, |b| seen.push(b));
+        assert_eq!(seen, vec![2, 1, 0]);
+        assert!(c.request(0) && !c.request(0));
+        c.arrived(0, 1);
+        assert!(c.request(1));
+        c.arrived(1, 2);
+        assert!(c.touch(0, 3));
+        assert!(c.request(2));
+        c.arrived(2, 4); // 100 + 101 + 102 > 250: block 1 (LRU) goes
+        assert_eq!((c.state(1), c.state(0), c.counters.evictions), (BlockState::Absent, BlockState::Resident, 1));
+    }
+}

@@ -1,0 +1,233 @@
+//! Destination tile cache: software-managed on-chip store of derived-frame
+//! tiles (TR98 §10; `docs/warper-reference.md` §5).
+//!
+//! Job: hold the destination tiles the compositor and the hole-fill unit
+//! work on; bring a tile in on first use in a warp and send it out when
+//! the tile manager releases it; when full, spill a resident tile to make
+//! room and count it.
+//!
+//! Ports: access (tile) from the compositor and the hole-fill unit; load
+//! and write-back requests to DRAM through the engine's memory port.
+//!
+//! Rules:
+//! 1. Capacity is `dest_cache_bytes / (tile_size² · 16 B)` tiles
+//!    ([`crate::config::CACHE_BYTES_PER_SAMPLE`]).
+//! 2. An access to a resident tile is a hit. The first access to a tile in
+//!    a warp is a *compulsory* miss; an access to a tile spilled earlier in
+//!    the same warp is a *capacity* miss. An access to a tile whose load is
+//!    in flight waits and is not counted again.
+//! 3. A compulsory miss loads the tile in A-buffer format (as the previous
+//!    warp wrote it back); in a frame's first warp the tile is empty and is
+//!    cleared on chip without a memory read. Either way the cache-only
+//!    planes 6–8 are reset as the tile arrives.
+//! 4. With every slot taken, a miss spills the least recently used resident
+//!    tile that is not pinned by the access in progress: all its planes go
+//!    out raw (`tile_size² · 16 B`) and come back raw on the capacity miss,
+//!    so a spill never changes a value (packing to A-buffer format is lossy
+//!    and happens only once per warp, on release).
+//! 5. On release the tile is packed to A-buffer format and written back;
+//!    its slot is free as soon as the write is queued.
+//!
+//! Not modelled: tag lookup latency and bank conflicts (an access to a
+//! resident tile costs nothing beyond the unit's cycle), write-buffer
+//! capacity beyond the engine's queue.
+
+/// State of one tile within the current warp.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TileState {
+    /// Not yet used in this warp.
+    Untouched,
+    /// A load is in flight.
+    Loading,
+    /// On chip.
+    Resident,
+    /// Spilled raw to memory (rule 4).
+    Spilled,
+    /// Released for this warp (packed and written back).
+    Released,
+}
+
+/// What an access found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lookup {
+    /// Resident: go ahead.
+    Hit,
+    /// A load is in flight: wait.
+    Wait,
+    /// Compulsory miss: a slot was taken; the caller starts the load.
+    Compulsory,
+    /// Capacity miss: a slot was taken; the caller reloads the raw tile.
+    Capacity,
+    /// No slot free and nothing unpinned to spill: wait.
+    Full,
+}
+
+/// Event counts (units: counts).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct TileCacheCounters {
+    /// Tile accesses (first look-up of each access; waits not recounted).
+    pub accesses: u64,
+    /// Accesses that found the tile resident.
+    pub hits: u64,
+    /// First use of a tile in a warp.
+    pub misses_compulsory: u64,
+    /// Use of a tile spilled earlier in the same warp.
+    pub misses_capacity: u64,
+    /// Tiles spilled raw to make room.
+    pub spills: u64,
+}
+
+/// The cache's tag state.
+#[derive(Clone, Debug)]
+pub struct TileCache {
+    capacity: usize,
+    state: Vec<TileState>,
+    last_use: Vec<u64>,
+    resident: Vec<u32>,
+    /// Tiles holding a slot: resident or loading.
+    held: usize,
+    /// Counters since the cache was made.
+    pub counters: TileCacheCounters,
+}
+
+impl TileCache {
+    /// A cache of `capacity` tiles over a grid of `tiles` tiles.
+    pub fn new(capacity: usize, tiles: usize) -> TileCache {
+        TileCache {
+            capacity,
+            state: vec![TileState::Untouched; tiles],
+            last_use: vec![0; tiles],
+            resident: Vec::new(),
+            held: 0,
+            counters: TileCacheCounters::default(),
+        }
+    }
+
+    /// Capacity (tiles).
+    pub fn capacity(&self) -> usize {
+        self.capacity
+    }
+
+    /// Tiles holding a slot now.
+    pub fn occupancy(&self) -> usize {
+        self.held
+    }
+
+    /// Start a new warp: every tile untouched (the cache is empty between
+    /// warps: the previous warp released every tile).
+    pub fn begin_warp(&mut self) {
+        debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
+        self.state.fill(TileState::Untouched);
+        self.resident.clear();
+    }
+
+    /// State of tile `t`.
+    pub fn state(&self, t: u32) -> TileState {
+        self.state[t as usize]
+    }
+
+    /// Look tile `t` up at time `now` (rule 2). `counted` is false for a
+    /// retry of an access already counted. On a miss that needs room, the
+    /// spilled tile is returned for the caller to write out (rule 4);
+    /// `pinned` tiles are never spilled.
+    pub fn access(&mut self, t: u32, now: u64, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
+        let ti = t as usize;
+        let st = self.state[ti];
+        let lookup = match st {
+            TileState::Resident => {
+                self.last_use[ti] = now;
+                Lookup::Hit
+            }
+            TileState::Loading => Lookup::Wait,
+            TileState::Untouched | TileState::Spilled => {
+                let mut spilled = None;
+                if self.held >= self.capacity {
+                    match self.victim(pinned) {
+                        Some(v) => {
+                            self.spill(v);
+                            spilled = Some(v);
+                        }
+                        None => return (Lookup::Full, None),
+                    }
+                }
+                self.held += 1;
+                self.state[ti] = TileState::Loading;
+                if counted {
+                    self.counters.accesses += 1;
+                    if st == TileState::Untouched {
+                        self.counters.misses_compulsory += 1;
+                    } else {
+                        self.counters.misses_capacity += 1;
+                    }
+                }
+                let l = if st == TileState::Untouched { Lookup::Compulsory } else { Lookup::Capacity };
+                return (l, spilled);
+            }
+            TileState::Released => panic!("tile {t} used after its release in this warp"),
+        };
+        if counted && lookup == Lookup::Hit {
+            self.counters.accesses += 1;
+            self.counters.hits += 1;
+        }
+        (lookup, None)
+    }
+
+    /// A load of tile `t` has arrived.
+    pub fn loaded(&mut self, t: u32, now: u64) {
+        debug_assert_eq!(self.state[t as usize], TileState::Loading);
+        self.state[t as usize] = TileState::Resident;
+        self.last_use[t as usize] = now;
+        self.resident.push(t);
+    }
+
+    /// Release tile `t` (rule 5): it must be resident.
+    pub fn release(&mut self, t: u32) {
+        debug_assert_eq!(self.state[t as usize], TileState::Resident);
+        self.remove_resident(t);
+        self.state[t as usize] = TileState::Released;
+    }
+
+    fn remove_resident(&mut self, t: u32) {
+        if let Some(k) = self.resident.iter().position(|&r| r == t) {
+            self.resident.swap_remove(k);
+        }
+        self.held -= 1;
+    }
+
+    fn victim(&self, pinned: &[u32]) -> Option<u32> {
+        self.resident.iter().copied().filter(|t| !pinned.contains(t)).min_by_key(|&t| (self.last_use[t as usize], t))
+    }
+
+    fn spill(&mut self, t: u32) {
+        self.remove_resident(t);
+        self.state[t as usize] = TileState::Spilled;
+        self.counters.spills += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compulsory_then_hits_then_capacity_after_a_spill() {
+        let mut c = TileCache::new(2, 4);
+        assert_eq!(c.access(0, 0, true, &[]), (Lookup::Compulsory, None));
+        assert_eq!(c.access(0, 1, true, &[]), (Lookup::Wait, None));
+        c.loaded(0, 1);
+        assert_eq!(c.access(0, 2, true, &[]).0, Lookup::Hit);
+        assert_eq!(c.access(1, 3, true, &[]).0, Lookup::Compulsory);
+        c.loaded(1, 3);
+        // Full: tile 0 is least recently used and is spilled for tile 2.
+        assert_eq!(c.access(2, 4, true, &[]), (Lookup::Compulsory, Some(0)));
+        c.loaded(2, 5);
+        assert_eq!(c.access(0, 6, true, &[1, 2]), (Lookup::Full, None));
+        assert_eq!(c.access(0, 7, true, &[]), (Lookup::Capacity, Some(1)));
+        let k = &c.counters;
+        assert_eq!((k.accesses, k.hits, k.misses_compulsory, k.misses_capacity, k.spills), (5, 1, 3, 1, 2));
+        c.loaded(0, 8);
+        c.release(0);
+        c.release(2);
+        assert_eq!(c.occupancy(), 0);
+    }
+}

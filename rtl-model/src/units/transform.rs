@@ -1,0 +1,171 @@
+//! Transform unit: warps each reference sample into the derived image
+//! (`docs/warper-reference.md` §1, §3; TR98 §5–6).
+//!
+//! Job: per sample, the derived position `(x', y')`, derived 1/Z and `W`
+//! (`W <= 0`: behind the derived camera, culled), the expected spacing `E`
+//! of the discontinuity test; on request, the derived-image slopes of 1/Z,
+//! the exact edge-splat corners and the better-reference mask.
+//!
+//! Ports: in, one reference sample `(x, y, 1/Z, slopes)` from the fetch
+//! unit; out, a [`Warped`] sample to kernel setup's line buffer.
+//!
+//! Throughput and latency: `transform_throughput` samples per cycle,
+//! `transform_latency` cycles (knobs; the engine models them with a
+//! [`crate::fifo::Fifo`]). One pipeline: the warp numerator
+//! `N = H·(x, y, 1) + δ·ê` (the incremental form adds a column of `H` per
+//! step; this model evaluates the same affine form directly at every sample,
+//! which is the incremental form re-seeded at each sample, so the result
+//! does not depend on the traversal direction), a reciprocal of `W`, the
+//! spacing, the slopes by Cramer's rule, the mask by dot products.
+//!
+//! Rules:
+//! 1. `E = sqrt(r1 / (r2·W²)) · f2/f1`, `r` the squared length of the
+//!    sample's viewing ray `((x−cx)/fx, (y−cy)/fy, 1)` in each camera, `f`
+//!    the geometric-mean focal length of each sample grid.
+//! 2. Edge corner `(sx, sy)` ∈ {±1}²: warp `(x + sx/2, y + sy/2)` with
+//!    `1/Z + (sx·∂x + sy·∂y)/2`.
+//! 3. Derived slopes `M⁻ᵀ·G/(W·s2)` (`M` the numerator's 2x2 Jacobian part,
+//!    `G` the 1/Z gradient numerator), zero when `|det M|/W² < 1e-12` or
+//!    not finite.
+//! 4. Better mask bit `j`: `(n·v_j)²·|v_own|² > (n·v_own)²·|v_j|²·(1+m)²`,
+//!    `n` the world normal from `(fx·∂x, fy·∂y, c0)`, `v` the vectors from
+//!    the surface point to the reference centres.
+//!
+//! Not modelled: fixed-point datapaths (FP64 arithmetic, FP32 storage, as
+//! in the golden model, so that the two agree bit for bit).
+
+use crate::camera::{Camera, WarpSetup};
+use glam::{DMat3, DVec2, DVec3};
+
+/// A warped reference sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Warped {
+    /// Derived-image position (samples).
+    pub pos: DVec2,
+    /// Derived 1/Z.
+    pub inv_z: f64,
+    /// Expected spacing `E` (derived samples per reference step).
+    pub e: f64,
+}
+
+/// The transform unit's registers for one reference warp.
+#[derive(Clone, Debug)]
+pub struct TransformUnit {
+    /// Warp parameters (sample grids).
+    pub setup: WarpSetup,
+    src: Camera,
+    dst: Camera,
+    centres: Vec<DVec3>,
+    this: usize,
+    better_margin: f64,
+    focal_ratio: f64,
+    inv_f_src: (f64, f64),
+    inv_f_dst: (f64, f64),
+    rot_src: DMat3,
+}
+
+fn geometric_focal(c: &Camera) -> f64 {
+    (c.intrinsics.fx * c.intrinsics.fy).sqrt()
+}
+
+fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
+    let (a, b) = (dx * inv_f.0, dy * inv_f.1);
+    a * a + b * b + 1.0
+}
+
+impl TransformUnit {
+    /// Load the unit for the warp `setup` from `src` to `dst` (sample
+    /// grids); `centres` are all references' centres in warp order, `this`
+    /// is ours; `better_margin` as in rule 4.
+    pub fn new(
+        setup: WarpSetup,
+        src: Camera,
+        dst: Camera,
+        centres: Vec<DVec3>,
+        this: usize,
+        better_margin: f64,
+    ) -> Self {
+        TransformUnit {
+            setup,
+            src,
+            dst,
+            centres,
+            this,
+            better_margin,
+            focal_ratio: geometric_focal(&dst) / geometric_focal(&src),
+            inv_f_src: (1.0 / src.intrinsics.fx, 1.0 / src.intrinsics.fy),
+            inv_f_dst: (1.0 / dst.intrinsics.fx, 1.0 / dst.intrinsics.fy),
+            rot_src: src.pose.rotation(),
+        }
+    }
+
+    /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if culled (behind the
+    /// derived camera or not finite).
+    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Warped> {
+        let w = self.setup.warp(x, y, inv_z);
+        if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
+            return None;
+        }
+        let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
+        let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
+        let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
+        let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
+        Some(Warped { pos: w.position, inv_z: w.inv_z, e })
+    }
+
+    /// Exact edge corner `(sx, sy)` (rule 2); `None` if behind the camera.
+    pub fn edge_corner(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2], sx: f64, sy: f64) -> Option<DVec2> {
+        let iz = inv_z + 0.5 * (sx * slopes[0] as f64 + sy * slopes[1] as f64);
+        let w = self.setup.warp(x + 0.5 * sx, y + 0.5 * sy, iz);
+        (w.w > 0.0 && w.position.is_finite()).then_some(w.position)
+    }
+
+    /// Derived-image slopes of 1/Z (rule 3).
+    pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
+        let s = &self.setup;
+        let d = s.s1 * inv_z;
+        let (dx, dy) = (s.s1 * slopes[0] as f64, s.s1 * slopes[1] as f64);
+        let n = s.h * DVec3::new(x, y, 1.0) + s.e_hat * d;
+        let nx = s.h.x_axis + s.e_hat * dx;
+        let ny = s.h.y_axis + s.e_hat * dy;
+        let w = n.z;
+        let inv_w = 1.0 / w;
+        let (xp, yp) = (n.x * inv_w, n.y * inv_w);
+        let (m00, m01) = (nx.x - xp * nx.z, ny.x - xp * ny.z);
+        let (m10, m11) = (nx.y - yp * nx.z, ny.y - yp * ny.z);
+        let (gx, gy) = (dx * w - d * nx.z, dy * w - d * ny.z);
+        let det = m00 * m11 - m01 * m10;
+        if !det.is_finite() || det.abs() < 1e-12 * w * w {
+            return [0.0, 0.0];
+        }
+        let k = 1.0 / (det * w * s.s2);
+        let v = [(gx * m11 - m10 * gy) * k, (m00 * gy - m01 * gx) * k];
+        if v[0].is_finite() && v[1].is_finite() { v } else { [0.0, 0.0] }
+    }
+
+    /// Better-reference mask (rule 4).
+    pub fn better_mask(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> u32 {
+        let k = &self.src.intrinsics;
+        let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
+        let a = k.fx * slopes[0] as f64;
+        let b = k.fy * slopes[1] as f64;
+        let c0 = inv_z - a * xn - b * yn;
+        let n = self.rot_src * DVec3::new(a, b, c0);
+        if n == DVec3::ZERO || !n.is_finite() {
+            return 0;
+        }
+        let p = self.src.pose.position + self.rot_src * DVec3::new(xn, yn, 1.0) / inv_z;
+        let v_own = self.centres[self.this] - p;
+        let (dot_own, len_own) = (n.dot(v_own), v_own.length_squared());
+        let m = (1.0 + self.better_margin) * (1.0 + self.better_margin);
+        let mut mask = 0;
+        for (j, &c) in self.centres.iter().enumerate() {
+            let v = c - p;
+            let dot = n.dot(v);
+            if j != self.this && dot * dot * len_own > dot_own * dot_own * v.length_squared() * m {
+                mask |= 1 << j;
+            }
+        }
+        mask
+    }
+}
