@@ -213,6 +213,42 @@ pub fn make_trace(scene: &Scene, spec: &TraceSpec, out: &Path, command: &str) ->
     Ok(w.finish()?)
 }
 
+/// Derived frame `k` of `scene` under `spec`, built in memory exactly as
+/// [`make_trace`] writes it (colour rounded to half, as the trace stores
+/// it): its commands and the rendered samples of its two references. For
+/// benchmarks that must not depend on files.
+pub fn frame_in_memory(
+    scene: &Scene,
+    spec: &TraceSpec,
+    k: usize,
+) -> anyhow::Result<(postwarp_rtl::FrameCommands, Vec<postwarp_rtl::SampleImage>)> {
+    let ss = spec.supersample;
+    let path = scene_path(scene, spec.path)?;
+    let ref_k = spec.reference_intrinsics()?;
+    let prev = spec.previous_reference(k);
+    let cams: Vec<(usize, Camera)> = [prev, prev + 1]
+        .into_iter()
+        .map(|j| {
+            let t = j as f64 / spec.ref_rate_hz;
+            (j, Camera { intrinsics: ref_k, pose: predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s) })
+        })
+        .collect();
+    let t = k as f64 / spec.derived_rate_hz;
+    let derived = Camera { intrinsics: spec.display_intrinsics(), pose: path.pose(spec.start_s + t) };
+    let cmd = postwarp_rtl::FrameCommands::new(k, derived, ss, &cams);
+    let refs = cams
+        .iter()
+        .map(|(_, cam)| {
+            let mut img = scene.render(cam, ss);
+            for c in img.colour.iter_mut().flatten() {
+                *c = exr::prelude::f16::from_f32(*c).to_f32();
+            }
+            img
+        })
+        .collect();
+    Ok((cmd, refs))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

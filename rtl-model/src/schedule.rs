@@ -161,7 +161,7 @@ fn chunk_bounds(
     };
     let (lo, hi) =
         depth.range(x0.saturating_sub(1), (x1 + 1).min(size.0 - 1), y0.saturating_sub(1), (y1 + 1).min(size.1 - 1));
-    if !(lo <= hi) {
+    if lo > hi {
         return Some((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY));
     }
     let (fx0, fx1) = (x0 as f64 - 1.5, x1 as f64 + 1.5);
@@ -212,7 +212,7 @@ impl Schedule {
                 let touched = match bounds {
                     None => Some((0, tiles.0 - 1, 0, tiles.1 - 1)),
                     Some((x0, x1, y0, y1)) => {
-                        let off = !(x0 <= x1)
+                        let off = x0 > x1
                             || x1 < -margin
                             || x0 > dst.0 as f64 - 1.0 + margin
                             || y1 < -margin

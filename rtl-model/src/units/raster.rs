@@ -54,7 +54,7 @@ fn centres_in(lo: f64, hi: f64) -> (i64, i64) {
 fn window(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
     let (a, b) = range;
     let l = limit as i64;
-    if b - a + 1 <= l {
+    if b - a < l {
         return range;
     }
     let start = ((centre - (l as f64 - 1.0) / 2.0).round() as i64).clamp(a, b - l + 1);

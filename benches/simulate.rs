@@ -1,0 +1,48 @@
+//! Speed of the hardware model: simulated cycles per host second and host
+//! seconds per derived frame, on one core.
+//!
+//! Input: the golden benchmark's frame (`benches/golden.rs`): `room` at
+//! 640x480 with 2x2 samples, derived frame 3 from references 0 and 1
+//! (2140x1496 samples each), built in memory by
+//! `tracegen::frame_in_memory`; the references are packed to A-buffer
+//! format once (`HwReference::new`), outside the measurement. The
+//! configuration is the `mark1998` preset.
+//!
+//! Run: `cargo bench --bench simulate`. Criterion prints the time per
+//! frame; the cycles per frame are printed once before measuring, so
+//! cycles per host second = cycles / time.
+
+use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
+use postwarp::scene::Scene;
+use postwarp::tracegen::{TraceSpec, frame_in_memory};
+use postwarp_rtl::config::EngineConfig;
+use postwarp_rtl::engine::{Engine, HwReference};
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+fn bench(c: &mut Criterion) {
+    let spec = TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() };
+    let scene = Scene::builtin("room").expect("built-in scene `room`");
+    let (cmd, imgs) = frame_in_memory(&scene, &spec, 3).expect("bench frame");
+    let cfg = EngineConfig::default();
+    let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, &cfg)).collect();
+    let refs: Vec<&HwReference> = refs.iter().collect();
+    let mut engine = Engine::new(cfg).expect("mark1998 validates");
+    let t = Instant::now();
+    let out = engine.run_frame(&cmd, &refs);
+    let s = t.elapsed().as_secs_f64();
+    let cycles = out.stats.cycles;
+    println!(
+        "simulate room 640x480 ss2 frame 3: {cycles} cycles per frame; first run {s:.3} s = {:.2} M cycles per host second",
+        cycles as f64 / s / 1e6
+    );
+    let mut g = c.benchmark_group("simulate_room_640x480_ss2_frame3");
+    g.sample_size(10);
+    g.sampling_mode(SamplingMode::Flat);
+    g.measurement_time(Duration::from_secs(20));
+    g.bench_function("mark1998", |b| b.iter(|| black_box(engine.run_frame(&cmd, &refs).stats.cycles)));
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
