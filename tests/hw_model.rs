@@ -1,0 +1,139 @@
+//! The hardware model's accounting: tile loads and evictions against the
+//! working set, DRAM bytes against what the packer wrote, cycle bounds, and
+//! unit latency seen end to end.
+
+mod common;
+
+use postwarp::trace::Trace;
+use postwarp_rtl::config::{CACHE_BYTES_PER_SAMPLE, EngineConfig};
+use postwarp_rtl::engine::{Engine, FrameOutput, HwReference};
+use postwarp_rtl::mem::Client;
+use postwarp_rtl::units::abuffer::{FRAGMENT_BYTES, PIXEL_HEADER_BYTES};
+use postwarp_rtl::{FrameCommands, SampleImage};
+use std::path::Path;
+
+fn room_frame(k: usize) -> (FrameCommands, Vec<SampleImage>) {
+    let t = Trace::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("traces/room")).unwrap();
+    let refs = t.derived[k].references.iter().map(|&r| t.load_reference(r).unwrap().samples).collect();
+    (t.frame_commands(k), refs)
+}
+
+fn run(cfg: &EngineConfig, cmd: &FrameCommands, imgs: &[SampleImage]) -> FrameOutput {
+    let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, cfg)).collect();
+    Engine::new(cfg.clone()).unwrap().run_frame(cmd, &refs.iter().collect::<Vec<_>>())
+}
+
+fn tiles_of(cmd: &FrameCommands, cfg: &EngineConfig) -> u64 {
+    let k = cmd.derived_camera.sample_grid(cfg.supersample).intrinsics;
+    (k.width.div_ceil(cfg.tile_size) * k.height.div_ceil(cfg.tile_size)) as u64
+}
+
+fn whole_frame_cache(cmd: &FrameCommands) -> EngineConfig {
+    let c = EngineConfig::default();
+    let bytes = tiles_of(cmd, &c) * (c.tile_size as u64).pow(2) * CACHE_BYTES_PER_SAMPLE;
+    EngineConfig { dest_cache_bytes: bytes, ..c }
+}
+
+#[test]
+fn with_the_working_set_on_chip_each_tile_moves_once_per_warp() {
+    let (cmd, imgs) = room_frame(0);
+    let cfg = whole_frame_cache(&cmd);
+    let n = tiles_of(&cmd, &cfg);
+    let out = run(&cfg, &cmd, &imgs);
+    let s = &out.stats;
+    assert_eq!(s.tile_loads, vec![n; cmd.warps.len()], "one load per tile per warp");
+    assert_eq!(s.tile_evictions, vec![n; cmd.warps.len()], "one eviction per tile per warp");
+    assert_eq!((s.dest_cache.misses_capacity, s.dest_cache.spills), (0, 0));
+    assert_eq!(s.dest_cache.misses_compulsory, n * cmd.warps.len() as u64);
+}
+
+#[test]
+fn a_smaller_cache_costs_misses_and_bytes_but_not_the_image() {
+    let (cmd, imgs) = room_frame(0);
+    let big = whole_frame_cache(&cmd);
+    let small = EngineConfig { dest_cache_bytes: 16 * (big.tile_size as u64).pow(2) * CACHE_BYTES_PER_SAMPLE, ..big.clone() };
+    let (a, b) = (run(&big, &cmd, &imgs), run(&small, &cmd, &imgs));
+    assert_eq!(a.frame, b.frame, "the cache size changes when, never what");
+    assert!(b.stats.dest_cache.misses_capacity > 0 && b.stats.dest_cache.spills > 0);
+    let bytes = |o: &FrameOutput| o.stats.dram.bytes_read + o.stats.dram.bytes_written;
+    assert!(bytes(&b) > bytes(&a), "{} vs {}", bytes(&b), bytes(&a));
+    assert!(b.stats.tile_loads.iter().sum::<u64>() > a.stats.tile_loads.iter().sum::<u64>());
+    assert!(b.stats.cycles >= a.stats.cycles);
+}
+
+#[test]
+fn dram_bytes_equal_what_the_packer_and_the_fetch_moved() {
+    let (cmd, imgs) = room_frame(2);
+    // Bursts of one byte: no rounding; caches large enough for one trip each.
+    let cfg = EngineConfig { dram_burst_bytes: 1, source_cache_bytes: 1 << 30, ..whole_frame_cache(&cmd) };
+    let out = run(&cfg, &cmd, &imgs);
+    let d = &out.stats.dram;
+    let (rd, wr) = (&d.client_bytes_read, &d.client_bytes_written);
+    assert_eq!(d.bytes_read, rd.iter().sum::<u64>());
+    assert_eq!(d.bytes_written, wr.iter().sum::<u64>());
+    // Everything written back is read again: by the next warp or the display.
+    let i = |c: Client| c.index();
+    assert_eq!(rd[i(Client::TileFill)] + rd[i(Client::Output)], wr[i(Client::TileWriteBack)]);
+    // Written bytes from the packer's own fragment counts: each pixel a
+    // header plus min(needed, limit) fragments, over every write-back.
+    let packed: u64 = out
+        .stats
+        .fragments_per_pixel
+        .iter()
+        .enumerate()
+        .map(|(k, &n)| n * (PIXEL_HEADER_BYTES + FRAGMENT_BYTES * k.min(cfg.max_fragments as usize) as u64))
+        .sum();
+    assert_eq!(wr[i(Client::TileWriteBack)], packed);
+    // Reference reads: each block read once, its packed size.
+    let refs: Vec<HwReference> = imgs.iter().map(|im| HwReference::new(im, &cfg)).collect();
+    assert!(rd[i(Client::ReferenceFetch)] > 0);
+    let whole: u64 = refs.iter().map(|r| r.packed.bytes()).sum();
+    assert!(rd[i(Client::ReferenceFetch)] <= whole, "no block read twice with a cache this large");
+    assert_eq!(out.stats.source_cache.evictions, 0);
+}
+
+#[test]
+fn cycles_are_bounded_by_bandwidth_and_transform_rate() {
+    for k in [0, 3] {
+        let (cmd, imgs) = room_frame(k);
+        for cfg in [
+            EngineConfig::default(),
+            EngineConfig { dram_peak_bytes_per_cycle: 1, ..EngineConfig::default() },
+            EngineConfig { transform_throughput: 4, rects_per_cycle: 4, ..EngineConfig::default() },
+        ] {
+            let s = run(&cfg, &cmd, &imgs).stats;
+            let bytes = s.dram.bytes_read + s.dram.bytes_written;
+            assert!(s.cycles >= bytes.div_ceil(cfg.dram_peak_bytes_per_cycle), "{} < bytes/peak", s.cycles);
+            let samples = s.samples_transformed.div_ceil(cfg.transform_throughput as u64);
+            assert!(s.cycles >= samples, "{} < samples/throughput {samples}", s.cycles);
+            for u in &s.units {
+                assert_eq!(u.busy + u.stall + u.idle, s.cycles, "every cycle of every unit is accounted");
+            }
+        }
+    }
+}
+
+/// One reference sample in view, warped to itself. Once the transform
+/// latency exceeds the other paths (the hole fill's sweep starts on tiles
+/// the sample cannot reach), the frame's cycle count is a fixed amount plus
+/// the latency: a sample entering the transform at cycle N leaves at
+/// exactly N + latency, not a cycle earlier or later.
+#[test]
+fn a_sample_leaves_the_transform_exactly_latency_cycles_later() {
+    let cam = common::camera(16, 12, glam::DVec3::ZERO);
+    let mut img = SampleImage::empty(32, 24);
+    let i = img.index(16, 12);
+    img.valid.set(i, true);
+    img.z[i] = 4.0;
+    img.colour[i] = [1.0, 0.0, 0.0];
+    let cmd = FrameCommands::new(0, cam, 2, &[(0, cam)]);
+    let cycles = |latency: u32| {
+        let cfg = EngineConfig { transform_latency: latency, ..EngineConfig::default() };
+        run(&cfg, &cmd, std::slice::from_ref(&img)).stats.cycles
+    };
+    let base = cycles(200);
+    for l in [201, 202, 203, 250, 500] {
+        assert_eq!(cycles(l), base + (l as u64 - 200), "latency {l}");
+    }
+    assert!(cycles(1) < base);
+}
