@@ -37,7 +37,8 @@ fn simulate_writes_frames_and_a_report_that_the_summary_agrees_with() {
         // The summary row of this frame starts with its index and cycles.
         let row = format!("{k:>6} {:>10}", f["cycles"].as_u64().unwrap());
         assert!(stdout.lines().any(|l| l.starts_with(&row)), "no row `{row}` in\n{stdout}");
-        let by: u64 = f["dram_bytes_by_client"].as_object().unwrap().values().map(|c| c["read"].as_u64().unwrap()).sum();
+        let by: u64 =
+            f["dram_bytes_by_client"].as_object().unwrap().values().map(|c| c["read"].as_u64().unwrap()).sum();
         assert_eq!(by, f["dram_read_bytes"].as_u64().unwrap());
         let fps = f["frame_rate_at_clock_hz"].as_f64().unwrap();
         assert!((fps - 100e6 / f["cycles"].as_f64().unwrap()).abs() < 1e-6 * fps);
@@ -72,12 +73,18 @@ fn presets_and_config_files_change_the_hardware_not_the_image() {
     assert!(simulate("room", &base, &[]).status.success());
     let o = simulate("room", &small, &["--config", cfg.to_str().unwrap()]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let read = |p: &Path| -> Value { serde_json::from_str(&std::fs::read_to_string(p.join("report.json")).unwrap()).unwrap() };
+    let read =
+        |p: &Path| -> Value { serde_json::from_str(&std::fs::read_to_string(p.join("report.json")).unwrap()).unwrap() };
     let (a, b) = (read(&base), read(&small));
     assert_eq!(b["config"]["dest_cache_bytes"], 8192);
     assert_eq!(b["total"]["identical_frames"], 6);
-    assert!(b["total"]["dest_cache"]["misses_capacity"].as_u64() > a["total"]["dest_cache"]["misses_capacity"].as_u64());
-    assert_eq!(std::fs::read(base.join("frame-0002.png")).unwrap(), std::fs::read(small.join("frame-0002.png")).unwrap());
+    assert!(
+        b["total"]["dest_cache"]["misses_capacity"].as_u64() > a["total"]["dest_cache"]["misses_capacity"].as_u64()
+    );
+    assert_eq!(
+        std::fs::read(base.join("frame-0002.png")).unwrap(),
+        std::fs::read(small.join("frame-0002.png")).unwrap()
+    );
     let hmd = dir.path().join("hmd");
     assert!(simulate("room", &hmd, &["--preset", "hmd2026"]).status.success());
     let c = read(&hmd);
