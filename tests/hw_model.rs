@@ -51,7 +51,8 @@ fn with_the_working_set_on_chip_each_tile_moves_once_per_warp() {
 fn a_smaller_cache_costs_misses_and_bytes_but_not_the_image() {
     let (cmd, imgs) = room_frame(0);
     let big = whole_frame_cache(&cmd);
-    let small = EngineConfig { dest_cache_bytes: 16 * (big.tile_size as u64).pow(2) * CACHE_BYTES_PER_SAMPLE, ..big.clone() };
+    let small =
+        EngineConfig { dest_cache_bytes: 16 * (big.tile_size as u64).pow(2) * CACHE_BYTES_PER_SAMPLE, ..big.clone() };
     let (a, b) = (run(&big, &cmd, &imgs), run(&small, &cmd, &imgs));
     assert_eq!(a.frame, b.frame, "the cache size changes when, never what");
     assert!(b.stats.dest_cache.misses_capacity > 0 && b.stats.dest_cache.spills > 0);
