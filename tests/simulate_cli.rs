@@ -113,3 +113,15 @@ fn bad_configurations_are_rejected_with_the_knob_named() {
     assert!(e.contains("cannot be used with"), "{e}");
     assert!(!out.join("report.json").exists(), "nothing written on a rejected configuration");
 }
+
+#[test]
+fn totals_sum_every_frame_including_keys_only_some_frames_have() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t");
+    assert!(simulate("occluders", &out, &[]).status.success());
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let by_size: u64 = r["total"]["rects_by_size"].as_object().unwrap().values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(by_size, r["total"]["rects"].as_u64().unwrap());
+    let cycles: u64 = r["frames"].as_array().unwrap().iter().map(|f| f["cycles"].as_u64().unwrap()).sum();
+    assert_eq!(r["total"]["cycles"].as_u64().unwrap(), cycles);
+}

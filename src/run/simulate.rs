@@ -244,9 +244,12 @@ fn sum_values(vals: &[&Value]) -> Option<Value> {
             }
             Some(Value::Array(out))
         }
-        Value::Object(o) => {
+        Value::Object(_) => {
             let mut m = Map::new();
-            for k in o.keys() {
+            let mut keys: Vec<&String> = vals.iter().filter_map(|v| v.as_object()).flat_map(|o| o.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
                 let items: Vec<&Value> = vals.iter().filter_map(|v| v.get(k)).collect();
                 if let Some(s) = sum_values(&items) {
                     m.insert(k.clone(), s);
@@ -264,6 +267,7 @@ fn total_entry(frames: &[Value]) -> Value {
     let mut m = Map::new();
     let Some(Value::Object(first)) = frames.first() else { return Value::Object(m) };
     for k in first.keys().filter(|k| !NOT_SUMMED.contains(&k.as_str())) {
+        // Every frame has the same top-level keys; nested objects may not.
         let items: Vec<&Value> = frames.iter().filter_map(|f| f.get(k)).collect();
         if let Some(s) = sum_values(&items) {
             m.insert(k.clone(), s);
@@ -293,7 +297,7 @@ fn mean_entry(frames: &[Value], cfg: &EngineConfig) -> Value {
         m.insert(k.into(), mean_of(frames, &[k]));
     }
     let mut vt = Map::new();
-    if let Some(Value::Object(q)) = frames.first().map(|f| &f["vs_truth"]) {
+    if let Some(Value::Object(q)) = frames.iter().map(|f| &f["vs_truth"]).find(|v| v.is_object()) {
         for k in q.keys() {
             vt.insert(k.clone(), mean_of(frames, &["vs_truth", k]));
         }
