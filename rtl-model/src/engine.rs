@@ -153,6 +153,53 @@ pub struct HwReference {
     pub depth: CoarseDepth,
     /// Packer counters of the conversion (reference frames).
     pub counters: AbufferCounters,
+    /// The same samples in the engine's host layout ([`Grid`]): what the
+    /// units read per sample, packed together (a host-speed copy; changes
+    /// no value).
+    grid: Grid,
+    recs: Vec<RefSample>,
+    /// `valid`, one word per 8x8 tile of [`Grid`].
+    valid_tiles: Vec<u64>,
+}
+
+/// Host layout of a reference's per-sample records: 8x8-sample tiles in
+/// row-major tile order, each tile row-major, so that the column-major
+/// sheets of the traversal touch as few host pages as the row-major ones.
+#[derive(Clone, Copy, Debug)]
+struct Grid {
+    tiles_x: usize,
+    tiles_y: usize,
+}
+
+impl Grid {
+    fn new(w: u32, h: u32) -> Grid {
+        Grid { tiles_x: w.div_ceil(8) as usize, tiles_y: h.div_ceil(8) as usize }
+    }
+
+    fn len(&self) -> usize {
+        self.tiles_x * self.tiles_y * 64
+    }
+
+    #[inline(always)]
+    fn index(&self, x: u32, y: u32) -> usize {
+        (((y >> 3) as usize * self.tiles_x + (x >> 3) as usize) << 6) | ((y & 7) << 3 | (x & 7)) as usize
+    }
+}
+
+/// What the units read of one reference sample (valid samples only).
+#[derive(Clone, Copy, Debug, Default)]
+struct RefSample {
+    inv_z: f64,
+    slopes: [f32; 2],
+    colour: [f32; 3],
+    z: f32,
+}
+
+impl HwReference {
+    #[inline(always)]
+    fn valid_at(&self, gi: usize) -> bool {
+        self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
+    }
 }
 
 fn abuffer_params(cfg: &EngineConfig) -> AbufferParams {
@@ -171,10 +218,24 @@ impl HwReference {
         let mut counters = AbufferCounters::default();
         let packed = abuffer::pack_reference(img, &abuffer_params(cfg), &mut counters);
         let samples = packed.unpack();
-        let inv_z =
+        let inv_z: Vec<f64> =
             (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
         let depth = CoarseDepth::new(&samples);
-        HwReference { packed, samples, inv_z, depth, counters }
+        let grid = Grid::new(samples.width, samples.height);
+        let mut recs = vec![RefSample::default(); grid.len()];
+        let mut valid_tiles = vec![0u64; grid.len() / 64];
+        for i in samples.valid.iter_ones() {
+            let (x, y) = ((i % samples.width as usize) as u32, (i / samples.width as usize) as u32);
+            let gi = grid.index(x, y);
+            valid_tiles[gi >> 6] |= 1 << (gi & 63);
+            recs[gi] = RefSample {
+                inv_z: inv_z[i],
+                slopes: samples.inv_z_slopes[i],
+                colour: samples.colour[i],
+                z: samples.z[i],
+            };
+        }
+        HwReference { packed, samples, inv_z, depth, counters, grid, recs, valid_tiles }
     }
 }
 
@@ -249,14 +310,41 @@ enum State {
 }
 
 /// Per-sample scratch reused across warps, stamped with the warp number so
-/// nothing is cleared between warps.
+/// nothing is cleared between warps; indexed like [`HwReference`]'s
+/// records ([`Grid`]).
 #[derive(Default)]
 struct Scratch {
-    warped: Vec<Option<Warped>>,
-    warped_gen: Vec<u32>,
-    groups: Vec<Group>,
-    group_gen: Vec<u32>,
+    warped: Vec<WarpSlot>,
+    groups: Vec<GroupSlot>,
     warp_no: u32,
+}
+
+/// A transformed sample (`some`: not culled) and the warp that wrote it.
+#[derive(Clone, Copy)]
+struct WarpSlot {
+    w: Warped,
+    warp: u32,
+    some: bool,
+}
+
+impl Default for WarpSlot {
+    fn default() -> Self {
+        WarpSlot { w: Warped { pos: DVec2::ZERO, inv_z: 0.0, e: 0.0 }, warp: 0, some: false }
+    }
+}
+
+impl WarpSlot {
+    #[inline(always)]
+    fn get(&self) -> Option<Warped> {
+        self.some.then_some(self.w)
+    }
+}
+
+/// A 2x2 group's verdict and the warp that computed it.
+#[derive(Clone, Copy)]
+struct GroupSlot {
+    g: Group,
+    warp: u32,
 }
 
 /// A kernel travelling from kernel setup to the compositor.
@@ -274,6 +362,9 @@ struct Job {
     stamp: Stamp,
     cand: Candidate,
     sample: (u32, u32),
+    /// The reference sample's 1/Z and slopes (for the better mask).
+    src_inv_z: f64,
+    src_slopes: [f32; 2],
     better: Option<u32>,
     counted: bool,
 }
@@ -552,12 +643,11 @@ impl Machine {
         retire_order.sort_unstable();
 
         // Per-sample scratch.
-        let n = img.len();
+        let grid = r.grid;
+        let n = grid.len();
         if sc.warped.len() < n {
-            sc.warped.resize(n, None);
-            sc.warped_gen.resize(n, 0);
-            sc.groups.resize(n, Group::Missing);
-            sc.group_gen.resize(n, 0);
+            sc.warped.resize(n, WarpSlot::default());
+            sc.groups.resize(n, GroupSlot { g: Group::Missing, warp: 0 });
         }
         sc.warp_no += 1;
         let wno = sc.warp_no;
@@ -724,7 +814,7 @@ impl Machine {
                 }
                 let mut job = cfifo.pop(self.now).expect("peeked");
                 let (sx, sy) = job.sample;
-                let si = img.index(sx, sy);
+                let (src_inv_z, src_slopes) = (job.src_inv_z, job.src_slopes);
                 job.stamp.for_each(|x, y| {
                     let i = f.index(x, y);
                     let better = &mut job.better;
@@ -732,11 +822,7 @@ impl Machine {
                         f,
                         i,
                         &job.cand,
-                        || {
-                            *better.get_or_insert_with(|| {
-                                tu.better_mask(sx as f64, sy as f64, r.inv_z[si], img.inv_z_slopes[si])
-                            })
-                        },
+                        || *better.get_or_insert_with(|| tu.better_mask(sx as f64, sy as f64, src_inv_z, src_slopes)),
                         cfg.slope_tol,
                         cfg.rel_tol,
                     );
@@ -779,10 +865,20 @@ impl Machine {
                 }
                 let (cw, ch) = s.drawn();
                 self.stats.rects[(cw as usize).min(RECT_HIST_MAX)][(ch as usize).min(RECT_HIST_MAX)] += 1;
-                let cand = candidate(tu, img, r, &sc.warped, k.sample, k.inv_z, warp as u8, cfg.threshold);
+                let cand = candidate(tu, r, &sc.warped, k.sample, k.inv_z, warp as u8, cfg.threshold);
+                let rec = &r.recs[grid.index(k.sample.0, k.sample.1)];
                 let _ = cfifo.push(
                     self.now,
-                    Job { line: k.line, stamp: s, cand, sample: k.sample, better: None, counted: false },
+                    Job {
+                        line: k.line,
+                        stamp: s,
+                        cand,
+                        sample: k.sample,
+                        src_inv_z: rec.inv_z,
+                        src_slopes: rec.slopes,
+                        better: None,
+                        counted: false,
+                    },
                 );
             }
             st[RASTER] = if did > 0 {
@@ -823,8 +919,8 @@ impl Machine {
                     continue;
                 }
                 let (x, y) = line_samples(&line, kj);
-                let i = img.index(x, y);
-                if !img.valid[i] {
+                let i = grid.index(x, y);
+                if !r.valid_at(i) {
                     kj += 1;
                     continue;
                 }
@@ -834,8 +930,8 @@ impl Machine {
                 }
                 kj += 1;
                 emitted += 1;
-                assert_eq!(sc.warped_gen[i], wno, "kernel setup read ({x}, {y}) before the fetch plan transformed it");
-                let Some(t) = sc.warped[i] else {
+                assert_eq!(sc.warped[i].warp, wno, "kernel setup read ({x}, {y}) before the fetch plan transformed it");
+                let Some(t) = sc.warped[i].get() else {
                     self.stats.culled_samples += 1;
                     continue;
                 };
@@ -843,27 +939,27 @@ impl Machine {
                     if gx < 0 || gy < 0 || gx as u32 + 1 >= w || gy as u32 + 1 >= h {
                         return None;
                     }
-                    let gi = img.index(gx as u32, gy as u32);
-                    if sc.group_gen[gi] != wno {
+                    let gi = grid.index(gx as u32, gy as u32);
+                    if sc.groups[gi].warp != wno {
                         let at = |x: u32, y: u32| {
-                            let j = img.index(x, y);
-                            if img.valid[j] {
-                                assert_eq!(sc.warped_gen[j], wno, "group read ({x}, {y}) before it was transformed");
-                                sc.warped[j]
+                            let j = grid.index(x, y);
+                            if r.valid_at(j) {
+                                assert_eq!(sc.warped[j].warp, wno, "group read ({x}, {y}) before it was transformed");
+                                sc.warped[j].get()
                             } else {
                                 None
                             }
                         };
                         let (gx, gy) = (gx as u32, gy as u32);
-                        sc.groups[gi] =
-                            group(at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1), cfg.threshold);
-                        sc.group_gen[gi] = wno;
+                        let g = group(at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1), cfg.threshold);
+                        sc.groups[gi] = GroupSlot { g, warp: wno };
                     }
-                    Some(sc.groups[gi])
+                    Some(sc.groups[gi].g)
                 };
                 let (xi, yi) = (x as i64, y as i64);
                 let groups = [g(xi - 1, yi - 1, sc), g(xi, yi - 1, sc), g(xi - 1, yi, sc), g(xi, yi, sc)];
-                let (c, _) = corners(tu, &t, x, y, r.inv_z[i], img.inv_z_slopes[i], groups);
+                let rec = &r.recs[i];
+                let (c, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
                 self.stats.kernels += 1;
                 outstanding[kl] += 1;
                 let _ = kfifo.push(
@@ -925,8 +1021,8 @@ impl Machine {
                     break;
                 }
                 let (x, y) = iv.at(fk);
-                let i = img.index(x, y);
-                if !img.valid[i] {
+                let i = grid.index(x, y);
+                if !r.valid_at(i) {
                     fk += 1;
                     continue;
                 }
@@ -949,8 +1045,10 @@ impl Machine {
                     st[TRANSFORM] = State::Stall;
                     break;
                 }
-                sc.warped[i] = tu.warp(x as f64, y as f64, r.inv_z[i]);
-                sc.warped_gen[i] = wno;
+                sc.warped[i] = match tu.warp(x as f64, y as f64, r.recs[i].inv_z) {
+                    Some(w) => WarpSlot { w, warp: wno, some: true },
+                    None => WarpSlot { warp: wno, ..WarpSlot::default() },
+                };
                 self.stats.samples_transformed += 1;
                 pushed += 1;
                 fk += 1;
@@ -994,33 +1092,35 @@ impl Machine {
 #[allow(clippy::too_many_arguments)]
 fn candidate(
     tu: &TransformUnit,
-    img: &SampleImage,
     r: &HwReference,
-    warped: &[Option<Warped>],
+    warped: &[WarpSlot],
     (x, y): (u32, u32),
     inv_z: f64,
     source: u8,
     threshold: f64,
 ) -> Candidate {
-    let i = img.index(x, y);
-    let slopes = tu.dest_slopes(x as f64, y as f64, r.inv_z[i], img.inv_z_slopes[i]);
-    let mut fill_colour = img.colour[i];
+    let img = &r.samples;
+    let i = r.grid.index(x, y);
+    let rec = &r.recs[i];
+    let slopes = tu.dest_slopes(x as f64, y as f64, rec.inv_z, rec.slopes);
+    let mut fill_colour = rec.colour;
     if let Some((dx, dy)) = backward_step(&tu.setup.epipole_reference, x, y) {
         let (nx, ny) = (x as i64 + dx as i64, y as i64 + dy as i64);
         if nx >= 0 && ny >= 0 && nx < img.width as i64 && ny < img.height as i64 {
-            let k = img.index(nx as u32, ny as u32);
-            if img.valid[k]
-                && let (Some(tn), Some(t)) = (warped[k], warped[i])
+            let k = r.grid.index(nx as u32, ny as u32);
+            if r.valid_at(k)
+                && let (Some(tn), Some(t)) = (warped[k].get(), warped[i].get())
             {
                 let offset = DVec2::new(dx as f64, dy as f64).length();
-                if img.z[k] > img.z[i] && !one_surface(&t, &tn, offset, threshold) {
-                    fill_colour = img.colour[k];
+                let nk = &r.recs[k];
+                if nk.z > rec.z && !one_surface(&t, &tn, offset, threshold) {
+                    fill_colour = nk.colour;
                 }
             }
         }
     }
     Candidate {
-        colour: img.colour[i],
+        colour: rec.colour,
         inv_z: inv_z as f32,
         slopes: [slopes[0] as f32, slopes[1] as f32],
         source,
