@@ -304,9 +304,9 @@ impl Port {
 /// Unit state of one cycle.
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum State {
-    Busy,
-    Stall,
-    Idle,
+    Busy = 0,
+    Stall = 1,
+    Idle = 2,
 }
 
 /// Per-sample scratch reused across warps, stamped with the warp number so
@@ -416,10 +416,12 @@ impl Engine {
             dram: Dram::new(cfg.dram()),
             now: Cycle::ZERO,
             port: Port::default(),
-            units: [UnitCycles::default(); 7],
+            units: [[0; 3]; 7],
             cache: TileCache::new(tile_cap, n_tiles),
             tile_bytes: vec![0; n_tiles],
             tiles,
+            tile_x: (0..dw).map(|x| x / tile).collect(),
+            tile_y: (0..dh).map(|y| y / tile * tiles.0).collect(),
             stats: FrameStats { rects: vec![vec![0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1], ..FrameStats::default() },
             ab: AbufferCounters::default(),
         };
@@ -431,7 +433,7 @@ impl Engine {
         }
         m.display_read();
         m.stats.cycles = m.now.get();
-        m.stats.units = m.units;
+        m.stats.units = m.units.map(|[busy, stall, idle]| UnitCycles { busy, stall, idle });
         m.stats.dram = m.dram.counters().clone();
         m.stats.dest_cache = m.cache.counters.clone();
         m.stats.fragments_per_pixel = m.ab.fragments_per_pixel.clone();
@@ -449,18 +451,25 @@ struct Machine {
     dram: Dram,
     now: Cycle,
     port: Port,
-    units: [UnitCycles; 7],
+    /// Per unit: busy, stalled and idle cycles (indexed by [`State`]).
+    units: [[u64; 3]; 7],
     cache: TileCache,
     /// Packed bytes of each tile as last written back (0: never written).
     tile_bytes: Vec<u64>,
     tiles: (u32, u32),
+    /// Per derived column: its tile column (`x / tile_size`).
+    tile_x: Vec<u32>,
+    /// Per derived row: the number of its tile row's first tile
+    /// (`y / tile_size · tiles.0`).
+    tile_y: Vec<u32>,
     stats: FrameStats,
     ab: AbufferCounters,
 }
 
 impl Machine {
+    #[inline(always)]
     fn tile_of(&self, x: u32, y: u32) -> u32 {
-        (y / self.cfg.tile_size) * self.tiles.0 + x / self.cfg.tile_size
+        self.tile_y[y as usize] + self.tile_x[x as usize]
     }
 
     fn raw_tile_bytes(&self) -> u64 {
@@ -474,12 +483,8 @@ impl Machine {
         if !moved && let Some(t) = next_event.filter(|&t| t > self.now + 1) {
             span = t - self.now;
         }
-        for (u, s) in self.units.iter_mut().zip(states) {
-            match s {
-                State::Busy => u.busy += span,
-                State::Stall => u.stall += span,
-                State::Idle => u.idle += span,
-            }
+        for (u, &s) in self.units.iter_mut().zip(states) {
+            u[s as usize] += span;
         }
         if span > 1 {
             self.dram.skip_to(self.now + (span - 1));
@@ -792,14 +797,16 @@ impl Machine {
             while did < rate {
                 let Some(job) = cfifo.peek(self.now) else { break };
                 let mut tiles = [u32::MAX; 4];
-                let (tx0, tx1) = (job.stamp.x.0 as u32 / ts, job.stamp.x.1 as u32 / ts);
-                let (ty0, ty1) = (job.stamp.y.0 as u32 / ts, job.stamp.y.1 as u32 / ts);
+                let (tx0, tx1) = (self.tile_x[job.stamp.x.0 as usize], self.tile_x[job.stamp.x.1 as usize]);
+                let (ty0, ty1) = (self.tile_y[job.stamp.y.0 as usize], self.tile_y[job.stamp.y.1 as usize]);
                 let mut k = 0;
-                for ty in ty0..=ty1 {
+                let mut row = ty0;
+                while row <= ty1 {
                     for tx in tx0..=tx1 {
-                        tiles[k] = ty * self.tiles.0 + tx;
+                        tiles[k] = row + tx;
                         k += 1;
                     }
+                    row += self.tiles.0;
                 }
                 let counted = !job.counted;
                 let mut ready = true;
@@ -1073,11 +1080,21 @@ impl Machine {
             if done {
                 break;
             }
-            let next = [self.dram.next_completion(), tpipe.next_visible(), kfifo.next_visible(), cfifo.next_visible()]
-                .into_iter()
-                .flatten()
-                .chain((packer_free > self.now).then_some(packer_free))
-                .min();
+            // The next event matters only when nothing moved.
+            let next = if moved {
+                None
+            } else {
+                let mut next = (packer_free > self.now).then_some(packer_free);
+                for c in [self.dram.next_completion(), tpipe.next_visible(), kfifo.next_visible(), cfifo.next_visible()]
+                    .into_iter()
+                    .flatten()
+                {
+                    if next.is_none_or(|n| c < n) {
+                        next = Some(c);
+                    }
+                }
+                next
+            };
             self.advance(&st, moved, next);
         }
         self.stats.source_cache.block_reads += src.counters.block_reads;

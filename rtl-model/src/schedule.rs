@@ -314,15 +314,17 @@ pub fn release_order<I: Iterator<Item = (i64, i64)>>(
     let tw = dst.0.div_ceil(tile);
     let th = dst.1.div_ceil(tile);
     let mut last = vec![0u64; (tw * th) as usize];
+    // Tile of a sample without dividing: column and row-start tables.
+    let col: Vec<u32> = (0..dst.0).map(|x| x / tile).collect();
+    let row: Vec<u32> = (0..dst.1).map(|y| y / tile * tw).collect();
     let mut visit = 0u64;
     for l in lines {
         for (x, y) in l.samples() {
             visit += 1;
-            last[((y / tile) * tw + x / tile) as usize] = visit;
+            last[(row[y as usize] + col[x as usize]) as usize] = visit;
             for (tx, ty) in taps(l, x, y) {
                 if tx >= 0 && ty >= 0 && tx < dst.0 as i64 && ty < dst.1 as i64 {
-                    let t = ((ty as u32 / tile) * tw + tx as u32 / tile) as usize;
-                    last[t] = visit;
+                    last[(row[ty as usize] + col[tx as usize]) as usize] = visit;
                 }
             }
         }

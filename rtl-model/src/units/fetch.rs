@@ -65,6 +65,10 @@ pub struct SourceCache {
     bytes: Vec<u64>,
     last_use: Vec<u64>,
     resident: Vec<u32>,
+    /// Per sample column: its block column (`x / side`).
+    col_block: Vec<u32>,
+    /// Per sample row: the number of its block row's first block.
+    row_block: Vec<u32>,
     /// Counters.
     pub counters: SourceCacheCounters,
 }
@@ -93,14 +97,15 @@ impl SourceCache {
             bytes: b,
             last_use: vec![0; n],
             resident: Vec::new(),
+            col_block: (0..w).map(|x| x / side).collect(),
+            row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
         }
     }
 
     /// The block holding sample `(x, y)`.
     pub fn block_of(&self, x: u32, y: u32) -> u32 {
-        let side = self.block_pixels * self.ss;
-        (y / side) * self.blocks.0 + x / side
+        self.row_block[y as usize] + self.col_block[x as usize]
     }
 
     /// Packed bytes of block `b`.
