@@ -51,7 +51,7 @@ use crate::fifo::Fifo;
 use crate::mem::{Access, Client, Dram, dram::DramCounters};
 use crate::sample_image::SampleImage;
 use crate::schedule::{CoarseDepth, Schedule, release_order};
-use crate::traversal::reverse_lines;
+use crate::traversal::{Major, reverse_lines};
 use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReference};
 use crate::units::composite::{Candidate, Verdict, composite};
 use crate::units::fetch::{BlockState, SourceCache, SourceCacheCounters};
@@ -309,42 +309,90 @@ enum State {
     Idle = 2,
 }
 
-/// Per-sample scratch reused across warps, stamped with the warp number so
-/// nothing is cleared between warps; indexed like [`HwReference`]'s
-/// records ([`Grid`]).
+/// Host-side scratch reused across warps.
+///
+/// The transform unit's outputs and kernel setup's 2x2 group verdicts are
+/// pure functions of the reference samples, so the host computes them
+/// when first read and keeps them in two small direct-mapped caches of
+/// four lines of the current sheet (the window kernel setup and the
+/// rasterizer read), tagged with the position and the warp number; a miss
+/// recomputes the same value. Which samples the transform unit has
+/// streamed in this warp is kept as one bit per sample, so that a read
+/// before the transform is still caught.
 #[derive(Default)]
 struct Scratch {
-    warped: Vec<WarpSlot>,
-    groups: Vec<GroupSlot>,
+    warps: Vec<WarpEntry>,
+    groups: Vec<GroupEntry>,
+    /// Entries per ring line (the longer image side).
+    stride: usize,
+    /// Per sample ([`Grid`] order): streamed by the transform unit in
+    /// this warp.
+    transformed: Vec<u64>,
     warp_no: u32,
 }
 
-/// A transformed sample (`some`: not culled) and the warp that wrote it.
+/// A cached transform of sample `(x, y)` in warp `warp` (`some`: not
+/// culled).
 #[derive(Clone, Copy)]
-struct WarpSlot {
-    w: Warped,
+struct WarpEntry {
+    x: u32,
+    y: u32,
     warp: u32,
     some: bool,
+    w: Warped,
 }
 
-impl Default for WarpSlot {
-    fn default() -> Self {
-        WarpSlot { w: Warped { pos: DVec2::ZERO, inv_z: 0.0, e: 0.0 }, warp: 0, some: false }
-    }
-}
-
-impl WarpSlot {
-    #[inline(always)]
-    fn get(&self) -> Option<Warped> {
-        self.some.then_some(self.w)
-    }
-}
-
-/// A 2x2 group's verdict and the warp that computed it.
+/// A cached verdict of the 2x2 group at `(x, y)` in warp `warp`.
 #[derive(Clone, Copy)]
-struct GroupSlot {
-    g: Group,
+struct GroupEntry {
+    x: u32,
+    y: u32,
     warp: u32,
+    g: Group,
+}
+
+impl Scratch {
+    /// Ready the caches for a warp of a `w x h` reference (grid `grid`).
+    fn begin_warp(&mut self, w: u32, h: u32, grid: &Grid) {
+        let stride = w.max(h) as usize;
+        if self.stride < stride {
+            self.stride = stride;
+            let none = Warped { pos: DVec2::ZERO, inv_z: 0.0, e: 0.0 };
+            self.warps = vec![WarpEntry { x: 0, y: 0, warp: 0, some: false, w: none }; 4 * stride];
+            self.groups = vec![GroupEntry { x: 0, y: 0, warp: 0, g: Group::Missing }; 4 * stride];
+        }
+        self.transformed.clear();
+        self.transformed.resize(grid.len() / 64, 0);
+        self.warp_no += 1;
+    }
+
+    /// Ring slot of position `(x, y)` when the current line runs along
+    /// `major`.
+    #[inline(always)]
+    fn slot(&self, major: Major, x: u32, y: u32) -> usize {
+        match major {
+            Major::Row => (y & 3) as usize * self.stride + x as usize,
+            Major::Column => (x & 3) as usize * self.stride + y as usize,
+        }
+    }
+
+    #[inline(always)]
+    fn is_transformed(&self, gi: usize) -> bool {
+        self.transformed[gi >> 6] >> (gi & 63) & 1 != 0
+    }
+
+    /// The transform of valid sample `(x, y)` of `r` (`None`: culled).
+    #[inline(always)]
+    fn warped(&mut self, tu: &TransformUnit, r: &HwReference, major: Major, x: u32, y: u32) -> Option<Warped> {
+        let s = self.slot(major, x, y);
+        let wno = self.warp_no;
+        let e = &mut self.warps[s];
+        if e.warp != wno || e.x != x || e.y != y {
+            let w = tu.warp(x as f64, y as f64, r.recs[r.grid.index(x, y)].inv_z);
+            *e = WarpEntry { x, y, warp: wno, some: w.is_some(), w: w.unwrap_or(e.w) };
+        }
+        e.some.then_some(e.w)
+    }
 }
 
 /// A kernel travelling from kernel setup to the compositor.
@@ -353,6 +401,8 @@ struct Kernel {
     sample: (u32, u32),
     pos: DVec2,
     inv_z: f64,
+    /// The transform's expected spacing (for the forward-edge test).
+    e: f64,
     corners_box: (f64, f64, f64, f64),
 }
 
@@ -649,12 +699,7 @@ impl Machine {
 
         // Per-sample scratch.
         let grid = r.grid;
-        let n = grid.len();
-        if sc.warped.len() < n {
-            sc.warped.resize(n, WarpSlot::default());
-            sc.groups.resize(n, GroupSlot { g: Group::Missing, warp: 0 });
-        }
-        sc.warp_no += 1;
+        sc.begin_warp(w, h, &grid);
         let wno = sc.warp_no;
 
         // Units' state.
@@ -872,7 +917,9 @@ impl Machine {
                 }
                 let (cw, ch) = s.drawn();
                 self.stats.rects[(cw as usize).min(RECT_HIST_MAX)][(ch as usize).min(RECT_HIST_MAX)] += 1;
-                let cand = candidate(tu, r, &sc.warped, k.sample, k.inv_z, warp as u8, cfg.threshold);
+                let major = sched.lines[k.line as usize].major;
+                let t = Warped { pos: k.pos, inv_z: k.inv_z, e: k.e };
+                let cand = candidate(tu, r, sc, major, k.sample, &t, warp as u8, cfg.threshold);
                 let rec = &r.recs[grid.index(k.sample.0, k.sample.1)];
                 let _ = cfifo.push(
                     self.now,
@@ -937,8 +984,9 @@ impl Machine {
                 }
                 kj += 1;
                 emitted += 1;
-                assert_eq!(sc.warped[i].warp, wno, "kernel setup read ({x}, {y}) before the fetch plan transformed it");
-                let Some(t) = sc.warped[i].get() else {
+                assert!(sc.is_transformed(i), "kernel setup read ({x}, {y}) before the fetch plan transformed it");
+                let major = line.major;
+                let Some(t) = sc.warped(tu, r, major, x, y) else {
                     self.stats.culled_samples += 1;
                     continue;
                 };
@@ -946,22 +994,24 @@ impl Machine {
                     if gx < 0 || gy < 0 || gx as u32 + 1 >= w || gy as u32 + 1 >= h {
                         return None;
                     }
-                    let gi = grid.index(gx as u32, gy as u32);
-                    if sc.groups[gi].warp != wno {
-                        let at = |x: u32, y: u32| {
+                    let (gx, gy) = (gx as u32, gy as u32);
+                    let s = sc.slot(major, gx, gy);
+                    let e = &sc.groups[s];
+                    if e.warp != wno || e.x != gx || e.y != gy {
+                        let mut at = |x: u32, y: u32| {
                             let j = grid.index(x, y);
                             if r.valid_at(j) {
-                                assert_eq!(sc.warped[j].warp, wno, "group read ({x}, {y}) before it was transformed");
-                                sc.warped[j].get()
+                                assert!(sc.is_transformed(j), "group read ({x}, {y}) before it was transformed");
+                                sc.warped(tu, r, major, x, y)
                             } else {
                                 None
                             }
                         };
-                        let (gx, gy) = (gx as u32, gy as u32);
-                        let g = group(at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1), cfg.threshold);
-                        sc.groups[gi] = GroupSlot { g, warp: wno };
+                        let (a, b, c, d) = (at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1));
+                        let g = group(a, b, c, d, cfg.threshold);
+                        sc.groups[s] = GroupEntry { x: gx, y: gy, warp: wno, g };
                     }
-                    Some(sc.groups[gi].g)
+                    Some(sc.groups[s].g)
                 };
                 let (xi, yi) = (x as i64, y as i64);
                 let groups = [g(xi - 1, yi - 1, sc), g(xi, yi - 1, sc), g(xi - 1, yi, sc), g(xi, yi, sc)];
@@ -976,6 +1026,7 @@ impl Machine {
                         sample: (x, y),
                         pos: t.pos,
                         inv_z: t.inv_z,
+                        e: t.e,
                         corners_box: bounding_box(&c),
                     },
                 );
@@ -1052,10 +1103,7 @@ impl Machine {
                     st[TRANSFORM] = State::Stall;
                     break;
                 }
-                sc.warped[i] = match tu.warp(x as f64, y as f64, r.recs[i].inv_z) {
-                    Some(w) => WarpSlot { w, warp: wno, some: true },
-                    None => WarpSlot { warp: wno, ..WarpSlot::default() },
-                };
+                sc.transformed[i >> 6] |= 1 << (i & 63);
                 self.stats.samples_transformed += 1;
                 pushed += 1;
                 fk += 1;
@@ -1110,9 +1158,10 @@ impl Machine {
 fn candidate(
     tu: &TransformUnit,
     r: &HwReference,
-    warped: &[WarpSlot],
+    sc: &mut Scratch,
+    major: Major,
     (x, y): (u32, u32),
-    inv_z: f64,
+    t: &Warped,
     source: u8,
     threshold: f64,
 ) -> Candidate {
@@ -1126,11 +1175,11 @@ fn candidate(
         if nx >= 0 && ny >= 0 && nx < img.width as i64 && ny < img.height as i64 {
             let k = r.grid.index(nx as u32, ny as u32);
             if r.valid_at(k)
-                && let (Some(tn), Some(t)) = (warped[k].get(), warped[i].get())
+                && let Some(tn) = sc.warped(tu, r, major, nx as u32, ny as u32)
             {
                 let offset = DVec2::new(dx as f64, dy as f64).length();
                 let nk = &r.recs[k];
-                if nk.z > rec.z && !one_surface(&t, &tn, offset, threshold) {
+                if nk.z > rec.z && !one_surface(t, &tn, offset, threshold) {
                     fill_colour = nk.colour;
                 }
             }
@@ -1138,7 +1187,7 @@ fn candidate(
     }
     Candidate {
         colour: rec.colour,
-        inv_z: inv_z as f32,
+        inv_z: t.inv_z as f32,
         slopes: [slopes[0] as f32, slopes[1] as f32],
         source,
         fill_colour,
