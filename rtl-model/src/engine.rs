@@ -153,18 +153,21 @@ pub struct HwReference {
     pub depth: CoarseDepth,
     /// Packer counters of the conversion (reference frames).
     pub counters: AbufferCounters,
-    /// The same samples in the engine's host layout ([`Grid`]): what the
-    /// units read per sample, packed together (a host-speed copy; changes
-    /// no value).
+    /// What the units read of each sample, packed in one record, twice
+    /// (host-speed copies; they change no value): row-major for the
+    /// row-major sheets and column-major for the others, so that a sheet
+    /// streams its records in address order.
+    rows: Vec<RefSample>,
+    cols: Vec<RefSample>,
+    /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     grid: Grid,
-    recs: Vec<RefSample>,
     /// `valid`, one word per 8x8 tile of [`Grid`].
     valid_tiles: Vec<u64>,
 }
 
-/// Host layout of a reference's per-sample records: 8x8-sample tiles in
-/// row-major tile order, each tile row-major, so that the column-major
-/// sheets of the traversal touch as few host pages as the row-major ones.
+/// Host layout of per-sample bits: 8x8-sample tiles in row-major tile
+/// order, each tile row-major (one 64-bit word per tile), so that rows and
+/// columns both walk few words.
 #[derive(Clone, Copy, Debug)]
 struct Grid {
     tiles_x: usize,
@@ -200,6 +203,15 @@ impl HwReference {
     fn valid_at(&self, gi: usize) -> bool {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
     }
+
+    /// The record of sample `(x, y)`, from the copy laid out along `major`.
+    #[inline(always)]
+    fn rec(&self, major: Major, x: u32, y: u32) -> &RefSample {
+        match major {
+            Major::Row => &self.rows[y as usize * self.samples.width as usize + x as usize],
+            Major::Column => &self.cols[x as usize * self.samples.height as usize + y as usize],
+        }
+    }
 }
 
 fn abuffer_params(cfg: &EngineConfig) -> AbufferParams {
@@ -221,21 +233,25 @@ impl HwReference {
         let inv_z: Vec<f64> =
             (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
         let depth = CoarseDepth::new(&samples);
+        let (w, h) = (samples.width as usize, samples.height as usize);
         let grid = Grid::new(samples.width, samples.height);
-        let mut recs = vec![RefSample::default(); grid.len()];
+        let mut rows = vec![RefSample::default(); w * h];
+        let mut cols = vec![RefSample::default(); w * h];
         let mut valid_tiles = vec![0u64; grid.len() / 64];
         for i in samples.valid.iter_ones() {
-            let (x, y) = ((i % samples.width as usize) as u32, (i / samples.width as usize) as u32);
-            let gi = grid.index(x, y);
+            let (x, y) = (i % w, i / w);
+            let gi = grid.index(x as u32, y as u32);
             valid_tiles[gi >> 6] |= 1 << (gi & 63);
-            recs[gi] = RefSample {
+            let rec = RefSample {
                 inv_z: inv_z[i],
                 slopes: samples.inv_z_slopes[i],
                 colour: samples.colour[i],
                 z: samples.z[i],
             };
+            rows[i] = rec;
+            cols[x * h + y] = rec;
         }
-        HwReference { packed, samples, inv_z, depth, counters, grid, recs, valid_tiles }
+        HwReference { packed, samples, inv_z, depth, counters, rows, cols, grid, valid_tiles }
     }
 }
 
@@ -388,7 +404,7 @@ impl Scratch {
         let wno = self.warp_no;
         let e = &mut self.warps[s];
         if e.warp != wno || e.x != x || e.y != y {
-            let w = tu.warp(x as f64, y as f64, r.recs[r.grid.index(x, y)].inv_z);
+            let w = tu.warp(x as f64, y as f64, r.rec(major, x, y).inv_z);
             *e = WarpEntry { x, y, warp: wno, some: w.is_some(), w: w.unwrap_or(e.w) };
         }
         e.some.then_some(e.w)
@@ -920,7 +936,7 @@ impl Machine {
                 let major = sched.lines[k.line as usize].major;
                 let t = Warped { pos: k.pos, inv_z: k.inv_z, e: k.e };
                 let cand = candidate(tu, r, sc, major, k.sample, &t, warp as u8, cfg.threshold);
-                let rec = &r.recs[grid.index(k.sample.0, k.sample.1)];
+                let rec = r.rec(major, k.sample.0, k.sample.1);
                 let _ = cfifo.push(
                     self.now,
                     Job {
@@ -1015,7 +1031,7 @@ impl Machine {
                 };
                 let (xi, yi) = (x as i64, y as i64);
                 let groups = [g(xi - 1, yi - 1, sc), g(xi, yi - 1, sc), g(xi - 1, yi, sc), g(xi, yi, sc)];
-                let rec = &r.recs[i];
+                let rec = r.rec(major, x, y);
                 let (c, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
                 self.stats.kernels += 1;
                 outstanding[kl] += 1;
@@ -1166,8 +1182,7 @@ fn candidate(
     threshold: f64,
 ) -> Candidate {
     let img = &r.samples;
-    let i = r.grid.index(x, y);
-    let rec = &r.recs[i];
+    let rec = r.rec(major, x, y);
     let slopes = tu.dest_slopes(x as f64, y as f64, rec.inv_z, rec.slopes);
     let mut fill_colour = rec.colour;
     if let Some((dx, dy)) = backward_step(&tu.setup.epipole_reference, x, y) {
@@ -1178,7 +1193,7 @@ fn candidate(
                 && let Some(tn) = sc.warped(tu, r, major, nx as u32, ny as u32)
             {
                 let offset = DVec2::new(dx as f64, dy as f64).length();
-                let nk = &r.recs[k];
+                let nk = r.rec(major, nx as u32, ny as u32);
                 if nk.z > rec.z && !one_surface(t, &tn, offset, threshold) {
                     fill_colour = nk.colour;
                 }
