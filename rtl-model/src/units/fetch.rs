@@ -63,8 +63,11 @@ pub struct SourceCache {
     used: u64,
     state: Vec<BlockState>,
     bytes: Vec<u64>,
-    last_use: Vec<u64>,
+    /// Resident blocks (unordered) and, in step, their last use.
     resident: Vec<u32>,
+    resident_use: Vec<u64>,
+    /// Per block: its position in `resident` (`u32::MAX`: not resident).
+    pos: Vec<u32>,
     /// Per sample column: its block column (`x / side`).
     col_block: Vec<u32>,
     /// Per sample row: the number of its block row's first block.
@@ -95,8 +98,9 @@ impl SourceCache {
             used: 0,
             state: vec![BlockState::Absent; n],
             bytes: b,
-            last_use: vec![0; n],
             resident: Vec::new(),
+            resident_use: Vec::new(),
+            pos: vec![u32::MAX; n],
             col_block: (0..w).map(|x| x / side).collect(),
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
@@ -148,27 +152,34 @@ impl SourceCache {
     pub fn arrived(&mut self, b: u32, now: u64) {
         let need = self.bytes[b as usize];
         while self.used + need > self.capacity && !self.resident.is_empty() {
-            let (k, _) = self
-                .resident
-                .iter()
-                .enumerate()
-                .min_by_key(|(_, r)| (self.last_use[**r as usize], **r))
-                .expect("not empty");
+            // Least recently used, ties to the lowest block number.
+            let mut k = 0;
+            for j in 1..self.resident.len() {
+                if (self.resident_use[j], self.resident[j]) < (self.resident_use[k], self.resident[k]) {
+                    k = j;
+                }
+            }
             let v = self.resident.swap_remove(k);
+            self.resident_use.swap_remove(k);
+            if let Some(&moved) = self.resident.get(k) {
+                self.pos[moved as usize] = k as u32;
+            }
+            self.pos[v as usize] = u32::MAX;
             self.used -= self.bytes[v as usize];
             self.state[v as usize] = BlockState::Absent;
             self.counters.evictions += 1;
         }
         self.used += need;
         self.state[b as usize] = BlockState::Resident;
-        self.last_use[b as usize] = now;
+        self.pos[b as usize] = self.resident.len() as u32;
         self.resident.push(b);
+        self.resident_use.push(now);
     }
 
     /// Read sample data from block `b` at `now`: true if on chip.
     pub fn touch(&mut self, b: u32, now: u64) -> bool {
         if self.state[b as usize] == BlockState::Resident {
-            self.last_use[b as usize] = now;
+            self.resident_use[self.pos[b as usize] as usize] = now;
             true
         } else {
             false

@@ -82,8 +82,11 @@ pub struct TileCacheCounters {
 pub struct TileCache {
     capacity: usize,
     state: Vec<TileState>,
-    last_use: Vec<u64>,
+    /// Resident tiles (unordered) and, in step, their last use.
     resident: Vec<u32>,
+    resident_use: Vec<u64>,
+    /// Per tile: its position in `resident` (`u32::MAX`: not resident).
+    pos: Vec<u32>,
     /// Tiles holding a slot: resident or loading.
     held: usize,
     /// Counters since the cache was made.
@@ -96,8 +99,9 @@ impl TileCache {
         TileCache {
             capacity,
             state: vec![TileState::Untouched; tiles],
-            last_use: vec![0; tiles],
             resident: Vec::new(),
+            resident_use: Vec::new(),
+            pos: vec![u32::MAX; tiles],
             held: 0,
             counters: TileCacheCounters::default(),
         }
@@ -118,7 +122,11 @@ impl TileCache {
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
         self.state.fill(TileState::Untouched);
+        for &t in &self.resident {
+            self.pos[t as usize] = u32::MAX;
+        }
         self.resident.clear();
+        self.resident_use.clear();
     }
 
     /// State of tile `t`.
@@ -135,7 +143,7 @@ impl TileCache {
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.last_use[ti] = now;
+                self.resident_use[self.pos[ti] as usize] = now;
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -176,8 +184,9 @@ impl TileCache {
     pub fn loaded(&mut self, t: u32, now: u64) {
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
-        self.last_use[t as usize] = now;
+        self.pos[t as usize] = self.resident.len() as u32;
         self.resident.push(t);
+        self.resident_use.push(now);
     }
 
     /// Release tile `t` (rule 5): it must be resident.
@@ -188,14 +197,28 @@ impl TileCache {
     }
 
     fn remove_resident(&mut self, t: u32) {
-        if let Some(k) = self.resident.iter().position(|&r| r == t) {
+        let k = self.pos[t as usize];
+        if k != u32::MAX {
+            let k = k as usize;
             self.resident.swap_remove(k);
+            self.resident_use.swap_remove(k);
+            if let Some(&moved) = self.resident.get(k) {
+                self.pos[moved as usize] = k as u32;
+            }
+            self.pos[t as usize] = u32::MAX;
         }
         self.held -= 1;
     }
 
+    /// The unpinned resident tile least recently used (ties: lowest number).
     fn victim(&self, pinned: &[u32]) -> Option<u32> {
-        self.resident.iter().copied().filter(|t| !pinned.contains(t)).min_by_key(|&t| (self.last_use[t as usize], t))
+        let mut best: Option<(u64, u32)> = None;
+        for (&t, &u) in self.resident.iter().zip(&self.resident_use) {
+            if best.is_none_or(|b| (u, t) < b) && !pinned.contains(&t) {
+                best = Some((u, t));
+            }
+        }
+        best.map(|(_, t)| t)
     }
 
     fn spill(&mut self, t: u32) {
