@@ -105,6 +105,7 @@ pub struct FetchInterval {
 
 impl FetchInterval {
     /// Image coordinates of the `k`-th sample streamed.
+    #[inline]
     pub fn at(&self, k: u32) -> (u32, u32) {
         let a = if self.step > 0 { self.lo + k } else { self.hi - k };
         match self.major {
@@ -114,11 +115,13 @@ impl FetchInterval {
     }
 
     /// Samples streamed.
+    #[inline]
     pub fn len(&self) -> u32 {
         self.hi - self.lo + 1
     }
 
     /// Never true for intervals of a schedule.
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.hi < self.lo
     }

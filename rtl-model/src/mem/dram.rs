@@ -157,6 +157,7 @@ impl DramConfig {
     }
 
     /// `bytes` rounded up to whole bursts (bytes).
+    #[inline]
     pub fn rounded(&self, bytes: u64) -> u64 {
         bytes.div_ceil(self.burst_bytes) * self.burst_bytes
     }
@@ -250,6 +251,7 @@ impl Dram {
 
     /// Advance to cycle `now` (called once per cycle, before any other call
     /// of that cycle).
+    #[inline]
     pub fn tick(&mut self, now: Cycle) {
         debug_assert!(
             self.now.is_none_or(|prev| now == prev.next()),
@@ -276,11 +278,13 @@ impl Dram {
     }
 
     /// The cycle from which the oldest outstanding request completes.
+    #[inline]
     pub fn next_completion(&self) -> Option<Cycle> {
         self.in_flight.front().map(|f| f.done)
     }
 
     /// True if a request at `now` would be accepted.
+    #[inline]
     pub fn will_accept(&self, now: Cycle) -> bool {
         self.check_now(now);
         self.last_accept != Some(now) && self.in_flight.len() < self.cfg.max_outstanding
@@ -291,6 +295,7 @@ impl Dram {
     ///
     /// # Panics
     /// If `bytes` is 0.
+    #[inline]
     pub fn request(&mut self, now: Cycle, client: Client, access: Access, bytes: u64, tag: u64) -> Result<(), Request> {
         assert!(bytes > 0, "DRAM request of 0 bytes");
         if !self.will_accept(now) {
@@ -328,6 +333,7 @@ impl Dram {
 
     /// The oldest outstanding request, if it has completed by `now`:
     /// `(tag, client)`. Frees its outstanding slot.
+    #[inline]
     pub fn completed(&mut self, now: Cycle) -> Option<(u64, Client)> {
         self.check_now(now);
         let head = self.in_flight.front()?;
@@ -339,6 +345,7 @@ impl Dram {
     }
 
     /// Requests accepted and not yet returned by `completed`.
+    #[inline]
     pub fn outstanding(&self) -> usize {
         self.in_flight.len()
     }

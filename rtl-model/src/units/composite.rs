@@ -56,6 +56,7 @@ pub enum Verdict {
 
 /// Composite candidate `c` into sample `i`; `better()` yields the
 /// candidate's better-reference mask, read only by rule 3.
+#[inline]
 pub fn composite(
     f: &mut DestFrame,
     i: usize,

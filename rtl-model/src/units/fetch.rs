@@ -108,16 +108,19 @@ impl SourceCache {
     }
 
     /// The block holding sample `(x, y)`.
+    #[inline]
     pub fn block_of(&self, x: u32, y: u32) -> u32 {
         self.row_block[y as usize] + self.col_block[x as usize]
     }
 
     /// Packed bytes of block `b`.
+    #[inline]
     pub fn bytes(&self, b: u32) -> u64 {
         self.bytes[b as usize]
     }
 
     /// State of block `b`.
+    #[inline]
     pub fn state(&self, b: u32) -> BlockState {
         self.state[b as usize]
     }
@@ -139,6 +142,7 @@ impl SourceCache {
 
     /// Mark block `b` requested (rule 3): the caller queues the read.
     /// Returns false if it is already on chip or on its way.
+    #[inline]
     pub fn request(&mut self, b: u32) -> bool {
         if self.state[b as usize] != BlockState::Absent {
             return false;
@@ -177,6 +181,7 @@ impl SourceCache {
     }
 
     /// Read sample data from block `b` at `now`: true if on chip.
+    #[inline]
     pub fn touch(&mut self, b: u32, now: u64) -> bool {
         if self.state[b as usize] == BlockState::Resident {
             self.resident_use[self.pos[b as usize] as usize] = now;

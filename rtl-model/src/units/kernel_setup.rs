@@ -53,17 +53,20 @@ pub enum Group {
 }
 
 /// Rule 1.
+#[inline]
 pub fn one_surface(a: &Warped, b: &Warped, offset_len: f64, threshold: f64) -> bool {
     let limit = threshold * offset_len * 0.5 * (a.e + b.e);
     (a.pos - b.pos).length_squared() <= limit * limit
 }
 
+#[inline]
 fn cross(a: DVec2, b: DVec2) -> f64 {
     a.x * b.y - a.y * b.x
 }
 
 /// The 2x2 group with samples `a` (top left), `b` (top right), `c` (bottom
 /// left), `d` (bottom right), rule 2.
+#[inline]
 pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<Warped>, threshold: f64) -> Group {
     let (Some(a), Some(b), Some(c), Some(d)) = (a, b, c, d) else { return Group::Missing };
     let r2 = std::f64::consts::SQRT_2;
@@ -82,6 +85,7 @@ pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<
 /// `slopes`) given the four groups around it, in the order top-left,
 /// top-right, bottom-left, bottom-right (`None`: off the image). Returns the
 /// corners and how many were edge corners (rules 2–3).
+#[inline]
 pub fn corners(
     tu: &TransformUnit,
     t: &Warped,
@@ -106,6 +110,7 @@ pub fn corners(
 }
 
 /// Rule 4: `(x0, x1, y0, y1)`.
+#[inline]
 pub fn bounding_box(c: &[DVec2; 4]) -> (f64, f64, f64, f64) {
     let (mut x0, mut x1, mut y0, mut y1) = (c[0].x, c[0].x, c[0].y, c[0].y);
     for p in &c[1..] {
@@ -119,6 +124,7 @@ pub fn bounding_box(c: &[DVec2; 4]) -> (f64, f64, f64, f64) {
 
 /// Rule 5's direction: the 8-neighbour offset nearest `−D(x, y)` for the
 /// reference-image epipole `e`; `None` where `D` vanishes.
+#[inline]
 pub fn backward_step(e: &Epipole, x: u32, y: u32) -> Option<(i32, i32)> {
     let d = -e.direction_at(DVec2::new(x as f64, y as f64));
     if d.length_squared() == 0.0 || !d.is_finite() {

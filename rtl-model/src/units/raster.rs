@@ -38,6 +38,7 @@ pub struct Stamp {
 
 /// Smallest integer `>= v` (`v` finite or not; NaN gives 0), without the
 /// libm call in the common case.
+#[inline]
 fn ceil_to_int(v: f64) -> i64 {
     if v.abs() < 4.5e15 {
         let t = v as i64;
@@ -47,10 +48,12 @@ fn ceil_to_int(v: f64) -> i64 {
     }
 }
 
+#[inline]
 fn centres_in(lo: f64, hi: f64) -> (i64, i64) {
     (ceil_to_int(lo), ceil_to_int(hi) - 1)
 }
 
+#[inline]
 fn window(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
     let (a, b) = range;
     let l = limit as i64;
@@ -63,6 +66,7 @@ fn window(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
 
 /// Rasterize the box `[x0, x1) x [y0, y1)` of a kernel whose warped sample
 /// is at `centre`, with stamp side `limit`, in a `size` image.
+#[inline]
 pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, size: (u32, u32)) -> Stamp {
     let (rx, ry) = (centres_in(x0, x1), centres_in(y0, y1));
     let n = |r: (i64, i64)| (r.1 - r.0 + 1).max(0) as u32;
@@ -79,16 +83,19 @@ pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32,
 
 impl Stamp {
     /// True if no centre is covered.
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.x.0 > self.x.1 || self.y.0 > self.y.1
     }
 
     /// Covered centres (columns, rows) after clipping.
+    #[inline]
     pub fn drawn(&self) -> (u32, u32) {
         if self.is_empty() { (0, 0) } else { ((self.x.1 - self.x.0 + 1) as u32, (self.y.1 - self.y.0 + 1) as u32) }
     }
 
     /// Visit the covered centres in raster order.
+    #[inline]
     pub fn for_each(&self, mut f: impl FnMut(u32, u32)) {
         for y in self.y.0..=self.y.1 {
             for x in self.x.0..=self.x.1 {

@@ -130,6 +130,7 @@ impl TileCache {
     }
 
     /// State of tile `t`.
+    #[inline]
     pub fn state(&self, t: u32) -> TileState {
         self.state[t as usize]
     }
@@ -138,6 +139,7 @@ impl TileCache {
     /// retry of an access already counted. On a miss that needs room, the
     /// spilled tile is returned for the caller to write out (rule 4);
     /// `pinned` tiles are never spilled.
+    #[inline]
     pub fn access(&mut self, t: u32, now: u64, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
         let ti = t as usize;
         let st = self.state[ti];
@@ -181,6 +183,7 @@ impl TileCache {
     }
 
     /// A load of tile `t` has arrived.
+    #[inline]
     pub fn loaded(&mut self, t: u32, now: u64) {
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;

@@ -68,6 +68,7 @@ fn geometric_focal(c: &Camera) -> f64 {
     (c.intrinsics.fx * c.intrinsics.fy).sqrt()
 }
 
+#[inline]
 fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
     let (a, b) = (dx * inv_f.0, dy * inv_f.1);
     a * a + b * b + 1.0
@@ -101,6 +102,7 @@ impl TransformUnit {
 
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if culled (behind the
     /// derived camera or not finite).
+    #[inline]
     pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Warped> {
         let w = self.setup.warp(x, y, inv_z);
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
@@ -114,6 +116,7 @@ impl TransformUnit {
     }
 
     /// Exact edge corner `(sx, sy)` (rule 2); `None` if behind the camera.
+    #[inline]
     pub fn edge_corner(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2], sx: f64, sy: f64) -> Option<DVec2> {
         let iz = inv_z + 0.5 * (sx * slopes[0] as f64 + sy * slopes[1] as f64);
         let w = self.setup.warp(x + 0.5 * sx, y + 0.5 * sy, iz);
@@ -121,6 +124,7 @@ impl TransformUnit {
     }
 
     /// Derived-image slopes of 1/Z (rule 3).
+    #[inline]
     pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
         let s = &self.setup;
         let d = s.s1 * inv_z;
@@ -144,6 +148,7 @@ impl TransformUnit {
     }
 
     /// Better-reference mask (rule 4).
+    #[inline]
     pub fn better_mask(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> u32 {
         let k = &self.src.intrinsics;
         let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
