@@ -37,6 +37,7 @@ pub enum GroupState {
 }
 
 /// Rule 1.
+#[inline(always)]
 pub fn same_surface(a: &Transformed, b: &Transformed, offset_len: f64, threshold: f64) -> bool {
     // Compared squared: no square root per pair.
     let limit = threshold * offset_len * 0.5 * (a.e + b.e);
@@ -49,6 +50,7 @@ fn cross(a: DVec2, b: DVec2) -> f64 {
 
 /// Fold-over test: quad A, B, D, C (reference order) must keep the
 /// reference winding at all four corners.
+#[inline(always)]
 pub fn folded(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
     let q = [a, b, d, c];
     (0..4).any(|k| cross(q[(k + 1) % 4] - q[k], q[(k + 2) % 4] - q[(k + 1) % 4]) <= 0.0)
@@ -56,6 +58,7 @@ pub fn folded(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
 
 /// State and shared corner of the group whose top-left sample is `(gx, gy)`;
 /// `at(x, y)` gives a sample's warp (`None`: no surface or culled).
+#[inline(always)]
 pub fn group(at: impl Fn(u32, u32) -> Option<Transformed>, gx: u32, gy: u32, threshold: f64) -> (GroupState, DVec2) {
     let (Some(a), Some(b), Some(c), Some(d)) = (at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1)) else {
         return (GroupState::Missing, DVec2::ZERO);
@@ -74,6 +77,7 @@ pub fn group(at: impl Fn(u32, u32) -> Option<Transformed>, gx: u32, gy: u32, thr
 /// The four corners of sample `(x, y)`'s kernel, and how many were edge
 /// corners (rules 2–3). `group_at(gx, gy)` gives the state and shared corner
 /// of the group whose top-left sample is `(gx, gy)`.
+#[inline(always)]
 pub fn corners(
     ctx: &WarpContext,
     img: &SampleImage,
@@ -108,6 +112,7 @@ pub fn corners(
 }
 
 /// Rule 4: `(x0, x1, y0, y1)`.
+#[inline(always)]
 pub fn bounding_box(c: &[DVec2; 4]) -> (f64, f64, f64, f64) {
     let (mut x0, mut x1, mut y0, mut y1) = (c[0].x, c[0].x, c[0].y, c[0].y);
     for p in &c[1..] {

@@ -19,7 +19,8 @@ use super::config::OverLimit;
 fn ceil_i64(v: f64) -> i64 {
     if v.abs() < 4.5e15 {
         let t = v as i64; // truncates toward zero
-        if (t as f64) < v { t + 1 } else { t }
+        // Branch-free: the fraction is random, a branch would mispredict.
+        t + ((t as f64) < v) as i64
     } else {
         v.ceil() as i64
     }
