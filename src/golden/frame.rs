@@ -32,7 +32,7 @@ use super::kernel_setup::{GroupState, bounding_box, corners, group, same_surface
 use super::planes::DestPlanes;
 use super::raster::rect;
 use super::resolve::resolve;
-use super::transform::{Transformed, WarpContext, backward_neighbour};
+use super::transform::{BATCH, SampleBatch, Transformed, WarpContext, backward_neighbour};
 use super::traversal::OrderKey;
 use bitvec::vec::BitVec;
 use glam::DVec2;
@@ -209,18 +209,26 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
     st.hole_fill_unreached += hf.unreached;
 }
 
-/// A kernel ready to draw: its candidate, warp-order key and reference
-/// sample; the better-reference mask is computed when first needed.
+/// A kernel ready to draw, kept small (24 bytes: phase B reads it from
+/// memory): the rest of its candidate is read from the reference, its
+/// warp-order key recomputed when a bucket needs sorting.
 struct Kernel {
-    cand: Candidate,
-    key: u64,
-    sample: (u32, u32),
+    /// Reference sample.
+    x: u32,
+    y: u32,
+    /// Derived 1/Z.
+    inv_z: f32,
+    /// Derived slopes of 1/Z.
+    slopes: [f32; 2],
     /// Better-reference mask once computed ([`UNKNOWN`] before).
-    better: std::cell::Cell<u32>,
+    better: std::cell::Cell<u16>,
+    /// Offset to the reference sample whose colour goes to the hole-fill
+    /// plane (rule 4): (0, 0) or the forward-edge neighbour.
+    fill: [i8; 2],
 }
 
 /// Marks a better-reference mask not yet computed (masks use bits 0–7).
-const UNKNOWN: u32 = u32::MAX;
+const UNKNOWN: u16 = u16::MAX;
 
 /// Working buffers of one reference warp, kept across warps and frames so
 /// that a run does not page-fault fresh memory for every warp.
@@ -271,12 +279,21 @@ fn warp_reference(
     let qi = |x: u32, y: u32| (y - qy0) as usize * qw + (x - qx0) as usize;
     warped.clear();
     warped.reserve(qw * (qy1 - qy0 + 1) as usize);
+    let mut out = [[0.0; 4]; BATCH];
+    let mut ok = [false; BATCH];
     for y in qy0..=qy1 {
-        for x in qx0..=qx1 {
-            let i = img.index(x, y);
-            let t = if img.valid[i] { ctx.transform(x as f64, y as f64, prepared.inv_z[i]) } else { None };
-            st.culled_samples += (img.valid[i] && t.is_none()) as u64;
-            warped.push(t);
+        // A batch of samples at a time (the transform's loop vectorises).
+        for x in (qx0..=qx1).step_by(BATCH) {
+            let n = ((qx1 - x + 1) as usize).min(BATCH);
+            let i0 = img.index(x, y);
+            ctx.transform_batch(x as f64, y as f64, &prepared.inv_z[i0..i0 + n], &mut out[..n], &mut ok[..n]);
+            for k in 0..n {
+                let valid = img.valid[i0 + k];
+                let [px, py, inv_z, e] = out[k];
+                let t = (valid && ok[k]).then_some(Transformed { pos: DVec2::new(px, py), inv_z, e });
+                st.culled_samples += (valid && t.is_none()) as u64;
+                warped.push(t);
+            }
         }
     }
     // Samples outside the region are in culled blocks, where W > 0 (cull.rs).
@@ -323,37 +340,56 @@ fn warp_reference(
                     _ => {}
                 }
             }
-            let i = img.index(x, y);
-            let inv_z = prepared.inv_z[i];
-            let slopes = ctx.dest_slopes(x as f64, y as f64, inv_z, img.inv_z_slopes[i]);
-            let fill_colour = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
+            let fill = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
                 Some(k) => {
                     st.forward_edges += 1;
-                    img.colour[k]
+                    let (nx, ny) = ((k % w as usize) as i64, (k / w as usize) as i64);
+                    [(nx - x as i64) as i8, (ny - y as i64) as i8]
                 }
-                None => img.colour[i],
+                None => [0, 0],
             };
-            let cand = Candidate {
-                colour: img.colour[i],
-                inv_z: t.inv_z as f32,
-                slopes: [slopes[0] as f32, slopes[1] as f32],
-                source,
-                better: 0, // computed on demand in phase B
-                fill_colour,
-                kind: Kind::Mesh,
-            };
-            let key = keys.key(x, y);
             let k = kernels.len() as u32;
             r.for_each(|sx, sy| entries.push((sy * d.width + sx, k)));
             kernels.push(Kernel {
-                cand,
-                key: if reverse { !key } else { key },
-                sample: (x, y),
-                better: std::cell::Cell::new(UNKNOWN),
+                x,
+                y,
+                inv_z: t.inv_z as f32,
+                slopes: [0.0; 2],                      // set below, in a pass of their own
+                better: std::cell::Cell::new(UNKNOWN), // below or on demand
+                fill,
             });
         }
     }
 
+    // Derived slopes, and the better-reference masks when earlier warps
+    // have stored samples the kernels may meet (compositing rule 3;
+    // otherwise on demand), in loops of their own over batches of kernels:
+    // they vectorise, and the divisions of successive kernels overlap where
+    // inside phase A each stalled it.
+    let masks_now = source > 0;
+    let mut batch = SampleBatch::default();
+    let (mut slopes, mut masks) = ([[0.0; 2]; BATCH], [0u32; BATCH]);
+    for chunk in kernels.chunks_mut(BATCH) {
+        let n = chunk.len();
+        for (k, kern) in chunk.iter().enumerate() {
+            let i = img.index(kern.x, kern.y);
+            batch.x[k] = kern.x as f64;
+            batch.y[k] = kern.y as f64;
+            batch.inv_z[k] = prepared.inv_z[i];
+            batch.sx[k] = img.inv_z_slopes[i][0] as f64;
+            batch.sy[k] = img.inv_z_slopes[i][1] as f64;
+        }
+        ctx.dest_slopes_batch(&batch, &mut slopes[..n]);
+        for (kern, s) in chunk.iter_mut().zip(&slopes) {
+            kern.slopes = [s[0] as f32, s[1] as f32];
+        }
+        if masks_now {
+            ctx.better_mask_batch(&mut batch, &mut masks[..n]);
+            for (kern, &m) in chunk.iter_mut().zip(&masks) {
+                kern.better.set(m as u16);
+            }
+        }
+    }
     // Phase B: per derived sample, composite its candidates in warp order.
     // Compositing touches only its own sample, so this equals drawing the
     // kernels one by one in warp order (rule 2).
@@ -379,21 +415,39 @@ fn warp_reference(
         let bucket = &mut sorted[begin..end];
         begin = end;
         if bucket.len() > 1 {
-            bucket.sort_unstable_by_key(|&k| kernels[k as usize].key);
+            // Keys are distinct (one per reference sample): any sort gives
+            // the warp order.
+            bucket.sort_unstable_by_key(|&k| {
+                let kern = &kernels[k as usize];
+                let key = keys.key(kern.x, kern.y);
+                if reverse { !key } else { key }
+            });
         }
         for &k in bucket.iter() {
             let kern = &kernels[k as usize];
+            let i = img.index(kern.x, kern.y);
+            let fill = img.index(
+                kern.x.wrapping_add_signed(kern.fill[0] as i32),
+                kern.y.wrapping_add_signed(kern.fill[1] as i32),
+            );
+            let cand = Candidate {
+                colour: img.colour[i],
+                inv_z: kern.inv_z,
+                slopes: kern.slopes,
+                source,
+                better: 0, // read below
+                fill_colour: img.colour[fill],
+                kind: Kind::Mesh,
+            };
             let better = || match kern.better.get() {
                 UNKNOWN => {
-                    let (x, y) = kern.sample;
-                    let i = img.index(x, y);
-                    let m = ctx.better_mask(x as f64, y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
-                    kern.better.set(m);
+                    let m = ctx.better_mask(kern.x as f64, kern.y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
+                    kern.better.set(m as u16);
                     m
                 }
-                m => m,
+                m => m as u32,
             };
-            count_outcome(st, composite_with(d, s, &kern.cand, better, cfg.slope_tol, cfg.rel_tol));
+            count_outcome(st, composite_with(d, s, &cand, better, cfg.slope_tol, cfg.rel_tol));
         }
     }
 }

@@ -73,11 +73,33 @@ fn focal(c: &Camera) -> f64 {
     (c.intrinsics.fx * c.intrinsics.fy).sqrt()
 }
 
+/// Samples per call of the batch functions (`*_batch`) at most.
+pub const BATCH: usize = 256;
+
 /// Squared length of the ray `((x−cx)/fx, (y−cy)/fy, 1)` from offsets to
 /// the principal point and reciprocal focal lengths.
+#[inline(always)]
 fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
     let (a, b) = (dx * inv_f.0, dy * inv_f.1);
     a * a + b * b + 1.0
+}
+
+/// The warp's numerator `N = H·(x, y, 1) + δ·ê`, in glam's order of
+/// operations: `(H.x_axis·x + H.y_axis·y) + H.z_axis·1`, then `+ ê·δ`.
+#[inline(always)]
+fn numerator_of(s: &WarpSetup, x: f64, y: f64, delta: f64) -> [f64; 3] {
+    let (h, e) = (&s.h, s.e_hat);
+    let row = |k: usize| h.x_axis[k] * x + h.y_axis[k] * y + h.z_axis[k] * 1.0 + e[k] * delta;
+    [row(0), row(1), row(2)]
+}
+
+/// [`WarpSetup::warp`] operation for operation (the same bits; tested), here
+/// so that the batch loops can inline it: `(x', y', 1/Z2, W)`.
+#[inline(always)]
+pub fn warp_of(s: &WarpSetup, x: f64, y: f64, inv_z: f64) -> [f64; 4] {
+    let delta = s.s1 * inv_z;
+    let [nx, ny, w] = numerator_of(s, x, y, delta);
+    [nx / w, ny / w, delta / (s.s2 * w), w]
 }
 
 impl WarpContext {
@@ -108,15 +130,30 @@ impl WarpContext {
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if behind the derived
     /// camera or not finite.
     pub fn transform(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
-        let w = self.setup.warp(x, y, inv_z);
-        if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
-            return None;
+        let ([px, py, iz, e], ok) = self.transform_of(x, y, inv_z);
+        ok.then(|| Transformed { pos: DVec2::new(px, py), inv_z: iz, e })
+    }
+
+    /// [`WarpContext::transform`] of the samples `(x0 + k, y)` with 1/Z
+    /// `inv_z[k]`, `k < out.len() <= BATCH`: `out[k]` is `(x', y', 1/Z2, E)`,
+    /// valid where `ok[k]`. Branch-free, so that the loop vectorises.
+    pub fn transform_batch(&self, x0: f64, y: f64, inv_z: &[f64], out: &mut [[f64; 4]], ok: &mut [bool]) {
+        let n = out.len().min(BATCH);
+        let (inv_z, ok) = (&inv_z[..n], &mut ok[..n]);
+        for k in 0..n {
+            (out[k], ok[k]) = self.transform_of(x0 + k as f64, y, inv_z[k]);
         }
+    }
+
+    #[inline(always)]
+    fn transform_of(&self, x: f64, y: f64, inv_z: f64) -> ([f64; 4], bool) {
+        let [px, py, iz, w] = warp_of(&self.setup, x, y, inv_z);
+        let ok = (w > 0.0) & px.is_finite() & py.is_finite() & iz.is_finite();
         let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
         let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
-        let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
-        let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
-        Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+        let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
+        let e = (r1 / (r2 * w * w)).sqrt() * self.focal_ratio;
+        ([px, py, iz, e], ok)
     }
 
     /// Exact edge-splat corner `(sx, sy)` of a sample (rule 2).
@@ -170,52 +207,201 @@ impl WarpContext {
     /// reference-space gradient `g = G/(W²·s2)`, `J⁻ᵀ·g = M⁻ᵀ·G/(W·s2)`,
     /// solved by Cramer's rule with a single division.
     pub fn dest_slopes(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
-        let (n, nx, ny, [d, dx, dy]) = self.numerator(x, y, inv_z, slopes);
-        let w = n.z;
+        self.dest_slopes_of(x, y, inv_z, slopes[0] as f64, slopes[1] as f64)
+    }
+
+    /// [`WarpContext::dest_slopes`] of the samples `s[k]`, `k < out.len() <=
+    /// BATCH`, into `out[k]`. Branch-free, so that the loop vectorises.
+    pub fn dest_slopes_batch(&self, s: &SampleBatch, out: &mut [[f64; 2]]) {
+        let n = out.len().min(BATCH);
+        let (x, y, inv_z, sx, sy) = (&s.x[..n], &s.y[..n], &s.inv_z[..n], &s.sx[..n], &s.sy[..n]);
+        for k in 0..n {
+            out[k] = self.dest_slopes_of(x[k], y[k], inv_z[k], sx[k], sy[k]);
+        }
+    }
+
+    #[inline(always)]
+    fn dest_slopes_of(&self, x: f64, y: f64, inv_z: f64, sx: f64, sy: f64) -> [f64; 2] {
+        // The same numerator as `numerator` below.
+        let s = &self.setup;
+        let d = s.s1 * inv_z;
+        let (dx, dy) = (s.s1 * sx, s.s1 * sy);
+        let n = numerator_of(s, x, y, d);
+        let nx: [f64; 3] = std::array::from_fn(|k| s.h.x_axis[k] + s.e_hat[k] * dx);
+        let ny: [f64; 3] = std::array::from_fn(|k| s.h.y_axis[k] + s.e_hat[k] * dy);
+        let w = n[2];
         let inv_w = 1.0 / w;
-        let (xp, yp) = (n.x * inv_w, n.y * inv_w);
-        let (m00, m01) = (nx.x - xp * nx.z, ny.x - xp * ny.z);
-        let (m10, m11) = (nx.y - yp * nx.z, ny.y - yp * ny.z);
-        let (gx, gy) = (dx * w - d * nx.z, dy * w - d * ny.z);
+        let (xp, yp) = (n[0] * inv_w, n[1] * inv_w);
+        let (m00, m01) = (nx[0] - xp * nx[2], ny[0] - xp * ny[2]);
+        let (m10, m11) = (nx[1] - yp * nx[2], ny[1] - yp * ny[2]);
+        let (gx, gy) = (dx * w - d * nx[2], dy * w - d * ny[2]);
         let det = m00 * m11 - m01 * m10;
         // |det J| = |det M|/W² below 1e-12: singular (edge-on), no slopes.
-        if !det.is_finite() || det.abs() < 1e-12 * w * w {
-            return [0.0, 0.0];
-        }
-        let k = 1.0 / (det * w * self.setup.s2);
+        let singular = !det.is_finite() | (det.abs() < 1e-12 * w * w);
+        let k = 1.0 / (det * w * s.s2);
         let v = [(gx * m11 - m10 * gy) * k, (m00 * gy - m01 * gx) * k];
-        if v[0].is_finite() && v[1].is_finite() { v } else { [0.0, 0.0] }
+        let ok = !singular & v[0].is_finite() & v[1].is_finite();
+        if ok { v } else { [0.0, 0.0] }
     }
 
     /// Better-reference bit-mask (rule 4).
     pub fn better_mask(&self, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> u32 {
-        let k = &self.src.intrinsics;
-        let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
-        let a = k.fx * slopes[0] as f64;
-        let b = k.fy * slopes[1] as f64;
-        let c0 = inv_z - a * xn - b * yn;
-        let r = self.rot_src;
-        let n = r * DVec3::new(a, b, c0);
-        if n == DVec3::ZERO || !n.is_finite() {
+        let v = self.view_of(x, y, inv_z, slopes[0] as f64, slopes[1] as f64);
+        if v.none {
             return 0;
         }
-        let p = self.src.pose.position + r * DVec3::new(xn, yn, 1.0) / inv_z;
-        // |cos_j| > |cos_own|·(1 + margin), squared and cross-multiplied so
-        // that neither the normal nor the view rays need normalising:
-        // (n·v_j)²·|v_own|² > (n·v_own)²·|v_j|²·(1 + margin)².
-        let v_own = self.centres[self.this] - p;
-        let (dot_own, len_own) = (n.dot(v_own), v_own.length_squared());
-        let m = (1.0 + self.better_margin) * (1.0 + self.better_margin);
+        let m = self.margin_sq();
         let mut mask = 0;
         for (j, &c) in self.centres.iter().enumerate() {
-            let v = c - p;
-            let dot = n.dot(v);
-            if j != self.this && dot * dot * len_own > dot_own * dot_own * v.length_squared() * m {
+            if j != self.this && better_of(&v, c, m) {
                 mask |= 1 << j;
             }
         }
         mask
     }
+
+    /// [`WarpContext::better_mask`] of the samples `s[k]`, `k < out.len() <=
+    /// BATCH`, into `out[k]`: the per-sample part, then one centre at a time
+    /// over the batch. Branch-free, so that the loops vectorise.
+    pub fn better_mask_batch(&self, s: &mut SampleBatch, out: &mut [u32]) {
+        let n = out.len().min(BATCH);
+        let out = &mut out[..n];
+        // The views, one array per term (so that the loops vectorise).
+        let w = &mut s.work;
+        for k in 0..n {
+            let v = self.view_of(s.x[k], s.y[k], s.inv_z[k], s.sx[k], s.sy[k]);
+            for c in 0..3 {
+                w.n[c][k] = v.n[c];
+                w.p[c][k] = v.p[c];
+            }
+            (w.dot_own[k], w.len_own[k], w.none[k]) = (v.dot_own, v.len_own, v.none);
+        }
+        out.fill(0);
+        let m = self.margin_sq();
+        for (j, &c) in self.centres.iter().enumerate() {
+            if j != self.this {
+                for (k, o) in out.iter_mut().enumerate() {
+                    let v = View {
+                        n: [w.n[0][k], w.n[1][k], w.n[2][k]],
+                        p: [w.p[0][k], w.p[1][k], w.p[2][k]],
+                        dot_own: w.dot_own[k],
+                        len_own: w.len_own[k],
+                        none: false,
+                    };
+                    *o |= (better_of(&v, c, m) as u32) << j;
+                }
+            }
+        }
+        for (o, &none) in out.iter_mut().zip(&w.none) {
+            *o = if none { 0 } else { *o };
+        }
+    }
+
+    /// `(1 + margin)²`.
+    fn margin_sq(&self) -> f64 {
+        (1.0 + self.better_margin) * (1.0 + self.better_margin)
+    }
+
+    /// The per-sample part of rule 4: the surface normal `n = R·(a, b, c0)`
+    /// from the slopes, the surface point `p`, and the terms of its own
+    /// reference's view ray (glam's order of operations throughout).
+    #[inline(always)]
+    fn view_of(&self, x: f64, y: f64, inv_z: f64, sx: f64, sy: f64) -> View {
+        let k = &self.src.intrinsics;
+        let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
+        let a = k.fx * sx;
+        let b = k.fy * sy;
+        let c0 = inv_z - a * xn - b * yn;
+        // glam's R·v: (R.x_axis·v.x + R.y_axis·v.y) + R.z_axis·v.z.
+        let r = &self.rot_src;
+        let rot = |v: [f64; 3]| -> [f64; 3] {
+            std::array::from_fn(|i| r.x_axis[i] * v[0] + r.y_axis[i] * v[1] + r.z_axis[i] * v[2])
+        };
+        let n = rot([a, b, c0]);
+        let none =
+            (n[0] == 0.0) & (n[1] == 0.0) & (n[2] == 0.0) | !(n[0].is_finite() & n[1].is_finite() & n[2].is_finite());
+        let q = rot([xn, yn, 1.0]);
+        let o = self.src.pose.position;
+        let p = [o.x + q[0] / inv_z, o.y + q[1] / inv_z, o.z + q[2] / inv_z];
+        let v_own = to_centre(p, self.centres[self.this]);
+        View { n, p, dot_own: dot(n, v_own), len_own: dot(v_own, v_own), none }
+    }
+}
+
+/// A sample's view terms for rule 4 ([`WarpContext::view_of`]).
+#[derive(Clone, Copy, Debug)]
+struct View {
+    n: [f64; 3],
+    p: [f64; 3],
+    dot_own: f64,
+    len_own: f64,
+    /// The normal is zero or not finite: the mask is 0.
+    none: bool,
+}
+
+/// Reference sample batch for the `*_batch` functions: position, 1/Z and
+/// slopes of 1/Z (widened to `f64`) of up to [`BATCH`] samples.
+#[derive(Clone, Debug)]
+pub struct SampleBatch {
+    /// Reference x (samples).
+    pub x: [f64; BATCH],
+    /// Reference y (samples).
+    pub y: [f64; BATCH],
+    /// Reference 1/Z.
+    pub inv_z: [f64; BATCH],
+    /// ∂(1/Z)/∂x in the reference.
+    pub sx: [f64; BATCH],
+    /// ∂(1/Z)/∂y in the reference.
+    pub sy: [f64; BATCH],
+    /// Working arrays of [`WarpContext::better_mask_batch`].
+    work: ViewArrays,
+}
+
+/// [`View`]s of a batch, one array per term.
+#[derive(Clone, Debug)]
+struct ViewArrays {
+    n: [[f64; BATCH]; 3],
+    p: [[f64; BATCH]; 3],
+    dot_own: [f64; BATCH],
+    len_own: [f64; BATCH],
+    none: [bool; BATCH],
+}
+
+impl Default for SampleBatch {
+    fn default() -> Self {
+        let z = [0.0; BATCH];
+        SampleBatch {
+            x: z,
+            y: z,
+            inv_z: z,
+            sx: z,
+            sy: z,
+            work: ViewArrays { n: [z; 3], p: [z; 3], dot_own: z, len_own: z, none: [false; BATCH] },
+        }
+    }
+}
+
+/// glam's `DVec3::dot`: `(x·x' + y·y') + z·z'`.
+#[inline(always)]
+fn dot(u: [f64; 3], v: [f64; 3]) -> f64 {
+    u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+}
+
+/// `c − p`.
+#[inline(always)]
+fn to_centre(p: [f64; 3], c: DVec3) -> [f64; 3] {
+    [c.x - p[0], c.y - p[1], c.z - p[2]]
+}
+
+/// Whether centre `c` sees the surface of view `v` better: `|cos_c| >
+/// |cos_own|·(1 + margin)`, squared and cross-multiplied so that neither
+/// the normal nor the view rays need normalising: `(n·v_c)²·|v_own|² >
+/// (n·v_own)²·|v_c|²·(1 + margin)²` (`m` = `(1 + margin)²`).
+#[inline(always)]
+fn better_of(v: &View, c: DVec3, m: f64) -> bool {
+    let vc = to_centre(v.p, c);
+    let d = dot(v.n, vc);
+    d * d * v.len_own > v.dot_own * v.dot_own * dot(vc, vc) * m
 }
 
 /// The 8-neighbour offset nearest the direction `−D(p)` (rule 5); `None`
@@ -338,6 +524,154 @@ mod tests {
         // A centre far along the plane sees it edge-on: not better.
         c.centres = vec![DVec3::ZERO, DVec3::new(0.5, 0.0, 20.0)];
         assert_eq!(c.better_mask(x, y, 0.5, [1.0 / 40.0, 0.0]), 0);
+    }
+
+    /// The formulas as first written with glam's vector types: the
+    /// branch-free, batch-friendly forms above must give the same bits.
+    mod glam_form {
+        use super::*;
+
+        pub fn transform(c: &WarpContext, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+            let w = c.setup.warp(x, y, inv_z);
+            if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
+                return None;
+            }
+            let (ks, kd) = (&c.src.intrinsics, &c.dst.intrinsics);
+            let r1 = ray_len_sq(x - ks.cx, y - ks.cy, c.inv_f_src);
+            let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, c.inv_f_dst);
+            let e = (r1 / (r2 * w.w * w.w)).sqrt() * c.focal_ratio;
+            Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+        }
+
+        pub fn dest_slopes(c: &WarpContext, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {
+            let (n, nx, ny, [d, dx, dy]) = c.numerator(x, y, inv_z, slopes);
+            let w = n.z;
+            let inv_w = 1.0 / w;
+            let (xp, yp) = (n.x * inv_w, n.y * inv_w);
+            let (m00, m01) = (nx.x - xp * nx.z, ny.x - xp * ny.z);
+            let (m10, m11) = (nx.y - yp * nx.z, ny.y - yp * ny.z);
+            let (gx, gy) = (dx * w - d * nx.z, dy * w - d * ny.z);
+            let det = m00 * m11 - m01 * m10;
+            if !det.is_finite() || det.abs() < 1e-12 * w * w {
+                return [0.0, 0.0];
+            }
+            let k = 1.0 / (det * w * c.setup.s2);
+            let v = [(gx * m11 - m10 * gy) * k, (m00 * gy - m01 * gx) * k];
+            if v[0].is_finite() && v[1].is_finite() { v } else { [0.0, 0.0] }
+        }
+
+        pub fn better_mask(c: &WarpContext, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> u32 {
+            let k = &c.src.intrinsics;
+            let (xn, yn) = ((x - k.cx) / k.fx, (y - k.cy) / k.fy);
+            let a = k.fx * slopes[0] as f64;
+            let b = k.fy * slopes[1] as f64;
+            let c0 = inv_z - a * xn - b * yn;
+            let r = c.rot_src;
+            let n = r * DVec3::new(a, b, c0);
+            if n == DVec3::ZERO || !n.is_finite() {
+                return 0;
+            }
+            let p = c.src.pose.position + r * DVec3::new(xn, yn, 1.0) / inv_z;
+            let v_own = c.centres[c.this] - p;
+            let (dot_own, len_own) = (n.dot(v_own), v_own.length_squared());
+            let m = (1.0 + c.better_margin) * (1.0 + c.better_margin);
+            let mut mask = 0;
+            for (j, &cj) in c.centres.iter().enumerate() {
+                let v = cj - p;
+                let dot = n.dot(v);
+                if j != c.this && dot * dot * len_own > dot_own * dot_own * v.length_squared() * m {
+                    mask |= 1 << j;
+                }
+            }
+            mask
+        }
+    }
+
+    /// Reference x, y, 1/Z and slopes.
+    type Sample = (f64, f64, f64, [f32; 2]);
+
+    /// A context with a rotated, shifted derived camera and three centres,
+    /// and pseudo-random samples (some behind the camera, some edge-on).
+    fn scrambled() -> (WarpContext, Vec<Sample>) {
+        let s = cam(0.0);
+        let d = Camera {
+            intrinsics: Intrinsics { width: 80, height: 60, fx: 52.0, fy: 51.0, cx: 39.5, cy: 29.5 },
+            pose: Pose {
+                position: DVec3::new(0.3, -0.2, 0.9),
+                orientation: DQuat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1),
+            },
+        };
+        let centres = vec![s.pose.position, d.pose.position, DVec3::new(-1.0, 0.5, 2.0)];
+        let c = WarpContext::new(WarpSetup::new(&s, &d), s, d, centres, 0, 0.05);
+        let mut seed = 0x2545f4914f6cdd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let samples = (0..3000)
+            .map(|_| {
+                let (x, y) = ((next() * 64.0).floor(), (next() * 48.0).floor());
+                let inv_z = if next() < 0.05 { 0.0 } else { 0.02 + next() * 2.0 };
+                let sl = [((next() - 0.5) * 0.2) as f32, ((next() - 0.5) * 0.2) as f32];
+                (x, y, inv_z, if next() < 0.05 { [0.0, 0.0] } else { sl })
+            })
+            .collect();
+        (c, samples)
+    }
+
+    #[test]
+    fn branch_free_and_batch_forms_give_the_glam_forms_bits() {
+        let (c, samples) = scrambled();
+        let bits2 = |v: [f64; 2]| v.map(f64::to_bits);
+        let (mut culled, mut masks_set) = (0, 0);
+        for &(x, y, iz, sl) in &samples {
+            let w = c.setup.warp(x, y, iz);
+            let [px, py, iz2, ww] = warp_of(&c.setup, x, y, iz);
+            assert_eq!(
+                [px, py, iz2, ww].map(f64::to_bits),
+                [w.position.x, w.position.y, w.inv_z, w.w].map(f64::to_bits)
+            );
+            let t = c.transform(x, y, iz);
+            culled += t.is_none() as u32;
+            assert_eq!(
+                t.map(|t| [t.pos.x, t.pos.y, t.inv_z, t.e].map(f64::to_bits)),
+                glam_form::transform(&c, x, y, iz).map(|t| [t.pos.x, t.pos.y, t.inv_z, t.e].map(f64::to_bits))
+            );
+            assert_eq!(bits2(c.dest_slopes(x, y, iz, sl)), bits2(glam_form::dest_slopes(&c, x, y, iz, sl)));
+            let m = c.better_mask(x, y, iz, sl);
+            assert_eq!(m, glam_form::better_mask(&c, x, y, iz, sl));
+            masks_set += (m != 0) as u32;
+        }
+        assert!(culled > 0, "some samples behind the derived camera");
+        assert!(masks_set > 0 && masks_set < samples.len() as u32, "{masks_set} masks set");
+        // Batches (a short last one too).
+        let mut b = SampleBatch::default();
+        for chunk in samples.chunks(BATCH - 7) {
+            let n = chunk.len();
+            for (k, &(x, y, iz, sl)) in chunk.iter().enumerate() {
+                (b.x[k], b.y[k], b.inv_z[k], b.sx[k], b.sy[k]) = (x, y, iz, sl[0] as f64, sl[1] as f64);
+            }
+            let mut slopes = [[0.0; 2]; BATCH];
+            c.dest_slopes_batch(&b, &mut slopes[..n]);
+            let mut masks = [0u32; BATCH];
+            c.better_mask_batch(&mut b, &mut masks[..n]);
+            for (k, &(x, y, iz, sl)) in chunk.iter().enumerate() {
+                assert_eq!(bits2(slopes[k]), bits2(c.dest_slopes(x, y, iz, sl)));
+                assert_eq!(masks[k], c.better_mask(x, y, iz, sl));
+            }
+        }
+        let iz: Vec<f64> = samples.iter().map(|s| s.2).take(BATCH).collect();
+        let (mut out, mut ok) = ([[0.0; 4]; BATCH], [false; BATCH]);
+        c.transform_batch(3.0, 7.0, &iz, &mut out, &mut ok);
+        for (k, &iz) in iz.iter().enumerate() {
+            let t = ok[k].then(|| out[k].map(f64::to_bits));
+            assert_eq!(
+                t,
+                c.transform(3.0 + k as f64, 7.0, iz).map(|t| [t.pos.x, t.pos.y, t.inv_z, t.e].map(f64::to_bits))
+            );
+        }
     }
 
     #[test]
