@@ -403,11 +403,12 @@ impl Scratch {
         let s = self.slot(major, x, y);
         let wno = self.warp_no;
         let e = &mut self.warps[s];
-        if e.warp != wno || e.x != x || e.y != y {
-            let w = tu.warp(x as f64, y as f64, r.rec(major, x, y).inv_z);
-            *e = WarpEntry { x, y, warp: wno, some: w.is_some(), w: w.unwrap_or(e.w) };
+        if e.warp == wno && e.x == x && e.y == y {
+            return e.some.then_some(e.w);
         }
-        e.some.then_some(e.w)
+        let w = tu.warp(x as f64, y as f64, r.rec(major, x, y).inv_z);
+        *e = WarpEntry { x, y, warp: wno, some: w.is_some(), w: w.unwrap_or(e.w) };
+        w
     }
 }
 

@@ -270,6 +270,16 @@ fn fetch_plan(lines: &[Line], live: &[bool], size: (u32, u32)) -> (Vec<FetchInte
         let first = sheet[0].line as i64 - dir;
         let last = sheet[sheet.len() - 1].line as i64 + dir;
         let count = (last - first) * dir + 1;
+        // Widened extent of the live sheet lines per line coordinate
+        // (`base + 1 ..= base + count`, one spare slot at each end).
+        let base = first.min(last) - 1;
+        let mut ext = vec![(i64::MAX, i64::MIN); count as usize + 2];
+        for (m, l) in sheet.iter().enumerate() {
+            if live[s + m] {
+                let e = &mut ext[(l.line as i64 - base) as usize];
+                *e = (e.0.min(l.lo as i64 - 1), e.1.max(l.hi as i64 + 1));
+            }
+        }
         let mut index_of_line = std::collections::HashMap::new();
         for k in 0..count {
             let c = first + k * dir;
@@ -278,11 +288,9 @@ fn fetch_plan(lines: &[Line], live: &[bool], size: (u32, u32)) -> (Vec<FetchInte
             }
             // Widened extents of the live sheet lines within one of c.
             let (mut lo, mut hi) = (i64::MAX, i64::MIN);
-            for (m, l) in sheet.iter().enumerate() {
-                if live[s + m] && (l.line as i64 - c).abs() <= 1 {
-                    lo = lo.min(l.lo as i64 - 1);
-                    hi = hi.max(l.hi as i64 + 1);
-                }
+            for e in &ext[(c - 1 - base) as usize..=(c + 1 - base) as usize] {
+                lo = lo.min(e.0);
+                hi = hi.max(e.1);
             }
             if lo > hi {
                 continue;
