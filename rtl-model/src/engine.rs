@@ -297,7 +297,11 @@ impl Port {
     }
 
     /// Issue at most one request; true if one was accepted.
+    #[inline]
     fn issue(&mut self, dram: &mut Dram, now: Cycle) -> bool {
+        if self.is_empty() {
+            return false;
+        }
         for q in [&mut self.demand, &mut self.writes, &mut self.prefetch, &mut self.output] {
             if let Some(r) = q.front() {
                 if r.bytes == 0 {
@@ -562,7 +566,14 @@ impl Machine {
 
     /// A tile access by a unit: returns true when the tile is resident.
     /// Starts loads and spills as needed (tile cache rules 2–4).
+    #[inline]
     fn want_tile(&mut self, t: u32, counted: bool, pinned: &[u32], f: &mut DestFrame, warp: usize) -> bool {
+        self.cache.hit(t, self.now.get(), counted) || self.want_tile_miss(t, counted, pinned, f, warp)
+    }
+
+    /// [`Machine::want_tile`] when the tile is not resident.
+    #[inline(never)]
+    fn want_tile_miss(&mut self, t: u32, counted: bool, pinned: &[u32], f: &mut DestFrame, warp: usize) -> bool {
         let (lookup, spilled) = self.cache.access(t, self.now.get(), counted, pinned);
         if let Some(v) = spilled {
             let bytes = self.raw_tile_bytes();
@@ -631,7 +642,13 @@ impl Machine {
     }
 
     /// Deliver DRAM completions of this cycle; true if any.
+    #[inline]
     fn completions(&mut self, f: &mut DestFrame, src: Option<&mut SourceCache>) -> bool {
+        self.dram.next_completion().is_some_and(|c| c <= self.now) && self.deliver(f, src)
+    }
+
+    #[inline(never)]
+    fn deliver(&mut self, f: &mut DestFrame, src: Option<&mut SourceCache>) -> bool {
         let mut any = false;
         let mut src = src;
         while let Some((tag, _)) = self.dram.completed(self.now) {

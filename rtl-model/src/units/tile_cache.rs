@@ -135,6 +135,22 @@ impl TileCache {
         self.state[t as usize]
     }
 
+    /// [`TileCache::access`] when tile `t` is resident (a hit, counted if
+    /// `counted`): true. Otherwise false, and nothing changes.
+    #[inline]
+    pub fn hit(&mut self, t: u32, now: u64, counted: bool) -> bool {
+        let ti = t as usize;
+        if self.state[ti] != TileState::Resident {
+            return false;
+        }
+        self.resident_use[self.pos[ti] as usize] = now;
+        if counted {
+            self.counters.accesses += 1;
+            self.counters.hits += 1;
+        }
+        true
+    }
+
     /// Look tile `t` up at time `now` (rule 2). `counted` is false for a
     /// retry of an access already counted. On a miss that needs room, the
     /// spilled tile is returned for the caller to write out (rule 4);
