@@ -88,7 +88,6 @@ pub fn corners(
 ) -> ([DVec2; 4], u32) {
     let (w, h) = (img.width, img.height);
     let i = img.index(x, y);
-    let inv_z = 1.0 / img.z[i] as f64;
     let mut out = [DVec2::ZERO; 4];
     let mut edges = 0;
     for (k, (sx, sy)) in [(-1i32, -1i32), (1, -1), (-1, 1), (1, 1)].into_iter().enumerate() {
@@ -104,6 +103,7 @@ pub fn corners(
             Some(c) => c,
             None => {
                 edges += 1;
+                let inv_z = 1.0 / img.z[i] as f64;
                 ctx.edge_corner(x as f64, y as f64, inv_z, img.inv_z_slopes[i], sx as f64, sy as f64).unwrap_or(t.pos)
             }
         };

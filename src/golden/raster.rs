@@ -16,6 +16,7 @@ use super::config::OverLimit;
 
 /// `v.ceil()` as an integer, without a libm call on targets lacking a
 /// rounding instruction; exact for |v| < 2^52, saturating beyond.
+#[inline(always)]
 fn ceil_i64(v: f64) -> i64 {
     if v.abs() < 4.5e15 {
         let t = v as i64; // truncates toward zero
@@ -28,11 +29,13 @@ fn ceil_i64(v: f64) -> i64 {
 
 /// Sample centres covered by `[lo, hi)` along one axis: `(first, last)`
 /// inclusive, empty when `first > last`.
+#[inline(always)]
 pub fn covered(lo: f64, hi: f64) -> (i64, i64) {
     (ceil_i64(lo), ceil_i64(hi) - 1)
 }
 
 /// Clip an inclusive range of centres to `limit` around `centre`.
+#[inline(always)]
 pub fn clip(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
     let (a, b) = range;
     let n = b - a + 1;
@@ -61,6 +64,7 @@ pub struct Rect {
 /// Rasterize box `[x0, x1) x [y0, y1)` for a sample warped to `(cx, cy)`
 /// into a `width x height` image.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn rect(
     x0: f64,
     x1: f64,
@@ -86,6 +90,7 @@ pub fn rect(
 
 impl Rect {
     /// Visit every covered sample `(x, y)`.
+    #[inline(always)]
     pub fn for_each(&self, mut f: impl FnMut(u32, u32)) {
         for y in self.y.0..=self.y.1 {
             for x in self.x.0..=self.x.1 {
