@@ -237,10 +237,19 @@ struct Scratch {
     warped: Vec<Option<Transformed>>,
     groups: Vec<(GroupState, DVec2)>,
     kernels: Vec<Kernel>,
-    entries: Vec<(u32, u32)>,
-    start: Vec<u32>,
-    sorted: Vec<u32>,
+    /// Per derived sample: its only candidate kernel so far, [`EMPTY`] or
+    /// [`MULTI`].
+    slots: Vec<u32>,
+    /// `(derived sample << 32) | kernel` for the derived samples with
+    /// several candidates ([`MULTI`]).
+    overflow: Vec<u64>,
 }
+
+/// A derived sample no kernel covers (yet).
+const EMPTY: u32 = u32::MAX;
+/// A derived sample several kernels cover: its candidates are in the
+/// overflow list.
+const MULTI: u32 = u32::MAX - 1;
 
 /// The golden model with its working buffers: create one and reuse it for
 /// every frame of a run.
@@ -266,7 +275,7 @@ fn warp_reference(
     st: &mut GoldenStats,
     scratch: &mut Scratch,
 ) {
-    let Scratch { warped, groups, kernels, entries, start, sorted } = scratch;
+    let Scratch { warped, groups, kernels, slots, overflow } = scratch;
     let img = &prepared.samples;
     let (w, h) = (img.width, img.height);
     st.reference_samples += img.valid.count_ones() as u64;
@@ -316,7 +325,9 @@ fn warp_reference(
 
     // Phase A, raster order: every kernel that reaches the derived image.
     kernels.clear();
-    entries.clear(); // (derived sample, kernel)
+    slots.clear();
+    slots.resize(d.len(), EMPTY);
+    overflow.clear();
     for y in ry0..=ry1 {
         for x in rx0..=rx1 {
             if !live.sample_live(x, y) {
@@ -349,7 +360,19 @@ fn warp_reference(
                 None => [0, 0],
             };
             let k = kernels.len() as u32;
-            r.for_each(|sx, sy| entries.push((sy * d.width + sx, k)));
+            debug_assert!(k < MULTI);
+            r.for_each(|sx, sy| {
+                let s = (sy * d.width + sx) as usize;
+                match slots[s] {
+                    EMPTY => slots[s] = k,
+                    MULTI => overflow.push(((s as u64) << 32) | k as u64),
+                    first => {
+                        overflow.push(((s as u64) << 32) | first as u64);
+                        overflow.push(((s as u64) << 32) | k as u64);
+                        slots[s] = MULTI;
+                    }
+                }
+            });
             kernels.push(Kernel {
                 x,
                 y,
@@ -392,62 +415,54 @@ fn warp_reference(
     }
     // Phase B: per derived sample, composite its candidates in warp order.
     // Compositing touches only its own sample, so this equals drawing the
-    // kernels one by one in warp order (rule 2).
-    // Counting sort of the entries by derived sample (stable).
-    start.clear();
-    start.resize(d.len() + 1, 0);
-    for &(s, _) in entries.iter() {
-        start[s as usize + 1] += 1;
-    }
-    for i in 0..d.len() {
-        start[i + 1] += start[i];
-    }
-    sorted.clear();
-    sorted.resize(entries.len(), 0);
-    for &(s, k) in entries.iter() {
-        sorted[start[s as usize] as usize] = k;
-        start[s as usize] += 1;
-    }
-    // start[s] is now the end of bucket s.
-    let mut begin = 0usize;
-    for (s, &end) in start[..d.len()].iter().enumerate() {
-        let end = end as usize;
-        let bucket = &mut sorted[begin..end];
-        begin = end;
-        if bucket.len() > 1 {
-            // Keys are distinct (one per reference sample): any sort gives
-            // the warp order.
-            bucket.sort_unstable_by_key(|&k| {
-                let kern = &kernels[k as usize];
-                let key = keys.key(kern.x, kern.y);
-                if reverse { !key } else { key }
-            });
-        }
-        for &k in bucket.iter() {
-            let kern = &kernels[k as usize];
-            let i = img.index(kern.x, kern.y);
-            let fill = img.index(
-                kern.x.wrapping_add_signed(kern.fill[0] as i32),
-                kern.y.wrapping_add_signed(kern.fill[1] as i32),
-            );
-            let cand = Candidate {
-                colour: img.colour[i],
-                inv_z: kern.inv_z,
-                slopes: kern.slopes,
-                source,
-                better: 0, // read below
-                fill_colour: img.colour[fill],
-                kind: Kind::Mesh,
-            };
-            let better = || match kern.better.get() {
-                UNKNOWN => {
-                    let m = ctx.better_mask(kern.x as f64, kern.y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
-                    kern.better.set(m as u16);
-                    m
+    // kernels one by one in warp order (rule 2). The overflow list sorted
+    // holds each shared sample's candidates together.
+    overflow.sort_unstable();
+    let mut draw = |d: &mut DestPlanes, s: usize, kern: &Kernel| {
+        let i = img.index(kern.x, kern.y);
+        let fill =
+            img.index(kern.x.wrapping_add_signed(kern.fill[0] as i32), kern.y.wrapping_add_signed(kern.fill[1] as i32));
+        let cand = Candidate {
+            colour: img.colour[i],
+            inv_z: kern.inv_z,
+            slopes: kern.slopes,
+            source,
+            better: 0, // read below
+            fill_colour: img.colour[fill],
+            kind: Kind::Mesh,
+        };
+        let better = || match kern.better.get() {
+            UNKNOWN => {
+                let m = ctx.better_mask(kern.x as f64, kern.y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
+                kern.better.set(m as u16);
+                m
+            }
+            m => m as u32,
+        };
+        count_outcome(st, composite_with(d, s, &cand, better, cfg.slope_tol, cfg.rel_tol));
+    };
+    let mut next = 0;
+    for (s, &slot) in slots.iter().enumerate() {
+        match slot {
+            EMPTY => {}
+            MULTI => {
+                let begin = next;
+                while next < overflow.len() && (overflow[next] >> 32) as usize == s {
+                    next += 1;
                 }
-                m => m as u32,
-            };
-            count_outcome(st, composite_with(d, s, &cand, better, cfg.slope_tol, cfg.rel_tol));
+                let shared = &mut overflow[begin..next];
+                // Keys are distinct (one per reference sample): any sort
+                // gives the warp order.
+                shared.sort_unstable_by_key(|&e| {
+                    let kern = &kernels[e as u32 as usize];
+                    let key = keys.key(kern.x, kern.y);
+                    if reverse { !key } else { key }
+                });
+                for &e in shared.iter() {
+                    draw(d, s, &kernels[e as u32 as usize]);
+                }
+            }
+            k => draw(d, s, &kernels[k as usize]),
         }
     }
 }
