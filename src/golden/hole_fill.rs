@@ -21,12 +21,13 @@
 //!    `C ← (C·Wt + c/d)/(Wt + 1/d)`, `Wt ← Wt + 1/d` (TR98 §9.1); real
 //!    surfaces always win.
 //!
-//! Work is one visit per derived sample and at most 5 tap reads: bounded
-//! by the derived image size, whatever the scene.
+//! Work: one scan of the fill-valid plane (a word at a time), then per
+//! sample without a valid fill colour its rank, a sort, and at most 5 tap
+//! reads with their ranks: bounded by the derived image size, whatever the
+//! scene, and proportional to the holes.
 
 use super::planes::DestPlanes;
-use super::traversal::{Major, visit};
-use bitvec::vec::BitVec;
+use super::traversal::{Major, OrderKey};
 use postwarp_rtl::camera::Epipole;
 
 /// Counters of one hole-fill pass.
@@ -52,81 +53,86 @@ pub struct HoleFillParams {
 }
 
 /// Run one pass over `d` for a warp whose derived-image epipole is `e`.
+///
+/// Only samples without a valid fill colour do anything (rule 2), so only
+/// they are visited, in the traversal's order: sorted by their rank
+/// ([`OrderKey`], tested to sort into exactly the order of [`visit`]). A
+/// sample was visited before another iff its rank is lower.
+///
+/// [`visit`]: super::traversal::visit
 pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFillStats {
     let (w, h) = (d.width as i64, d.height as i64);
-    let mut visited: BitVec = BitVec::repeat(false, d.len());
+    let keys = OrderKey::new(d.width, d.height, e);
+    let rank = |i: usize| keys.key((i % d.width as usize) as u32, (i / d.width as usize) as u32);
+    let mut holes: Vec<(u64, usize)> = d.fill_valid.iter_zeros().map(|i| (rank(i), i)).collect();
+    holes.sort_unstable();
     let mut st = HoleFillStats::default();
-    visit(d.width, d.height, e, |sheet, x, y| {
-        {
-            let i = (y as i64 * w + x as i64) as usize;
-            visited.set(i, true);
-            if d.fill_valid[i] {
-                return;
-            }
-            // Tap at offset `k` along the line, one line back.
-            let tap = |k: i64| -> Option<usize> {
-                let (tx, ty) = match sheet.major {
-                    Major::Row => (x as i64 + k, y as i64 - sheet.line_step as i64),
-                    Major::Column => (x as i64 - sheet.line_step as i64, y as i64 + k),
-                };
-                if tx < 0 || ty < 0 || tx >= w || ty >= h {
-                    return None;
-                }
-                let j = (ty * w + tx) as usize;
-                (visited[j] && d.fill_valid[j]).then_some(j)
+    for (key, i) in holes {
+        let (x, y) = (i as i64 % w, i as i64 / w);
+        let sheet = keys.scan_at(x as u32, y as u32);
+        // Tap at offset `k` along the line, one line back.
+        let tap = |k: i64| -> Option<usize> {
+            let (tx, ty) = match sheet.major {
+                Major::Row => (x + k, y - sheet.line_step as i64),
+                Major::Column => (x - sheet.line_step as i64, y + k),
             };
-            // Up to 3 near and 2 far taps, in fixed arrays (no allocation).
-            let mut taps = [0usize; 5];
-            let mut n_taps = 0;
-            for k in [-1, 0, 1] {
+            if tx < 0 || ty < 0 || tx >= w || ty >= h {
+                return None;
+            }
+            let j = (ty * w + tx) as usize;
+            (d.fill_valid[j] && rank(j) < key).then_some(j)
+        };
+        // Up to 3 near and 2 far taps, in fixed arrays (no allocation).
+        let mut taps = [0usize; 5];
+        let mut n_taps = 0;
+        for k in [-1, 0, 1] {
+            if let Some(j) = tap(k) {
+                taps[n_taps] = j;
+                n_taps += 1;
+            }
+        }
+        if n_taps == 0 {
+            st.unreached += 1;
+            continue;
+        }
+        let dist =
+            (1 + taps[..n_taps].iter().map(|&j| d.fill_distance[j] as u32).min().unwrap_or(0)).min(p.max_distance);
+        if dist > p.far_distance {
+            let before = n_taps;
+            for k in [-(p.far_offset as i64), p.far_offset as i64] {
                 if let Some(j) = tap(k) {
                     taps[n_taps] = j;
                     n_taps += 1;
                 }
             }
-            if n_taps == 0 {
-                st.unreached += 1;
-                return;
-            }
-            let dist =
-                (1 + taps[..n_taps].iter().map(|&j| d.fill_distance[j] as u32).min().unwrap_or(0)).min(p.max_distance);
-            if dist > p.far_distance {
-                let before = n_taps;
-                for k in [-(p.far_offset as i64), p.far_offset as i64] {
-                    if let Some(j) = tap(k) {
-                        taps[n_taps] = j;
-                        n_taps += 1;
-                    }
-                }
-                if n_taps > before {
-                    st.far_taps_used += 1;
-                }
-            }
-            let taps = &taps[..n_taps];
-            let mut c = [0.0f64; 3];
-            for &j in taps {
-                for (acc, v) in c.iter_mut().zip(d.fill_colour[j]) {
-                    *acc += v as f64;
-                }
-            }
-            let n = taps.len() as f64;
-            let c = c.map(|v| (v / n) as f32);
-            d.fill_colour[i] = c;
-            d.fill_valid.set(i, true);
-            d.fill_distance[i] = dist as u8;
-            st.filled += 1;
-            if !d.real[i] {
-                let wt = d.fill_weight[i] as f64;
-                let inv_d = 1.0 / dist as f64;
-                let old = if d.hole[i] { d.colour[i] } else { [0.0; 3] };
-                for k in 0..3 {
-                    d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
-                }
-                d.fill_weight[i] = (wt + inv_d) as f32;
-                d.hole.set(i, true);
+            if n_taps > before {
+                st.far_taps_used += 1;
             }
         }
-    });
+        let taps = &taps[..n_taps];
+        let mut c = [0.0f64; 3];
+        for &j in taps {
+            for (acc, v) in c.iter_mut().zip(d.fill_colour[j]) {
+                *acc += v as f64;
+            }
+        }
+        let n = taps.len() as f64;
+        let c = c.map(|v| (v / n) as f32);
+        d.fill_colour[i] = c;
+        d.fill_valid.set(i, true);
+        d.fill_distance[i] = dist as u8;
+        st.filled += 1;
+        if !d.real[i] {
+            let wt = d.fill_weight[i] as f64;
+            let inv_d = 1.0 / dist as f64;
+            let old = if d.hole[i] { d.colour[i] } else { [0.0; 3] };
+            for k in 0..3 {
+                d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+            }
+            d.fill_weight[i] = (wt + inv_d) as f32;
+            d.hole.set(i, true);
+        }
+    }
     st
 }
 

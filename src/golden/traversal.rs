@@ -255,16 +255,28 @@ impl OrderKey {
         OrderKey { width, height, point, scans }
     }
 
-    /// Rank key of sample `(x, y)`: sheet, then line, then position in line.
-    pub fn key(&self, x: u32, y: u32) -> u64 {
-        let sheet = match self.point {
+    /// Index of the sheet of sample `(x, y)` (in visiting order for a finite
+    /// epipole: OCTANTS).
+    fn sheet(&self, x: u32, y: u32) -> usize {
+        match self.point {
             None => 0,
             Some(e) => {
                 // Index in OCTANTS: vertical first, then right, then below.
                 let (v, r, b) = octant_of(x, y, e);
                 ((!v as usize) << 2) | ((!r as usize) << 1) | (!b as usize)
             }
-        };
+        }
+    }
+
+    /// The scan pattern of the sheet holding sample `(x, y)` (what [`visit`]
+    /// passes along with it).
+    pub fn scan_at(&self, x: u32, y: u32) -> SheetInfo {
+        info(self.scans[self.sheet(x, y)])
+    }
+
+    /// Rank key of sample `(x, y)`: sheet, then line, then position in line.
+    pub fn key(&self, x: u32, y: u32) -> u64 {
+        let sheet = self.sheet(x, y);
         let (major, line_step, step) = self.scans[sheet];
         let (line, along, lines, len) = match major {
             Major::Row => (y, x, self.height, self.width),
@@ -365,6 +377,7 @@ mod tests {
             let mut all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
             all.sort_by_key(|&(x, y)| k.key(x, y));
             assert_eq!(all, order(w, h, &e), "epipole {hv:?}");
+            visit(w, h, &e, |s, x, y| assert_eq!(*s, k.scan_at(x, y), "epipole {hv:?} at ({x},{y})"));
         }
     }
 
