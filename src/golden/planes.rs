@@ -99,11 +99,41 @@ impl DestPlanes {
     /// samples are true surfaces (distance 0, fill colour = colour); others
     /// have no fill colour yet.
     pub fn begin_warp(&mut self) {
-        for i in 0..self.len() {
-            let real = self.real[i];
-            self.fill_valid.set(i, real);
-            self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
-            self.fill_distance[i] = 0;
+        self.fill_valid.copy_from_bitslice(&self.real);
+        self.fill_distance.fill(0);
+        // A word of the real plane at a time (bit b of word w: sample 64w + b).
+        let bits = usize::BITS as usize;
+        let n = self.len();
+        for (w, &word) in self.real.as_raw_slice().iter().enumerate() {
+            let lo = w * bits;
+            let hi = (lo + bits).min(n);
+            for (b, (fill, &colour)) in self.fill_colour[lo..hi].iter_mut().zip(&self.colour[lo..hi]).enumerate() {
+                *fill = if (word >> b) & 1 != 0 { colour } else { [0.0; 3] };
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn begin_warp_seeds_the_fill_planes_from_real_samples() {
+        // Past one word of flags, with a partial last word.
+        let mut d = DestPlanes::new(13, 11);
+        for i in 0..d.len() {
+            d.colour[i] = [i as f32, 1.0, 2.0];
+            d.real.set(i, i % 3 == 0 || i % 7 == 1);
+            d.fill_colour[i] = [9.0; 3];
+            d.fill_distance[i] = 5;
+        }
+        d.begin_warp();
+        for i in 0..d.len() {
+            let real = i % 3 == 0 || i % 7 == 1;
+            assert_eq!(d.fill_valid[i], real, "{i}");
+            assert_eq!(d.fill_colour[i], if real { d.colour[i] } else { [0.0; 3] }, "{i}");
+            assert_eq!(d.fill_distance[i], 0);
         }
     }
 }
