@@ -287,7 +287,21 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
     if p.max_fragments == 0 {
         return;
     }
-    let ss = p.ss as usize;
+    // One copy per common super-sampling factor, where the sample offsets
+    // and loop bounds are constants.
+    match p.ss {
+        1 => round_trip_dest_ss(d, p, stats, 1),
+        2 => round_trip_dest_ss(d, p, stats, 2),
+        4 => round_trip_dest_ss(d, p, stats, 4),
+        ss => round_trip_dest_ss(d, p, stats, ss),
+    }
+}
+
+/// [`round_trip_dest`] with `p.ss == pss`.
+#[inline(always)]
+fn round_trip_dest_ss(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats, pss: u32) {
+    debug_assert_eq!(pss, p.ss);
+    let ss = pss as usize;
     let w = d.width as usize;
     let mut views = [None; MAX_SS2];
     let mut idx = [0usize; MAX_SS2];
@@ -309,13 +323,13 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
                     });
                 }
             }
-            if one_plane_fast_path(d, &views[..ss * ss], &idx[..ss * ss], p, stats) {
+            if one_plane_fast_path(d, &views[..ss * ss], &idx[..ss * ss], p, pss, stats) {
                 continue;
             }
             compress_pixel(&views[..ss * ss], p, stats, &mut sc);
             // Pixels do not overlap: write this one back at once.
             for (k, &i) in idx[..ss * ss].iter().enumerate() {
-                let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+                let (ox, oy) = (offset(pss, k as u32 % pss), offset(pss, k as u32 / pss));
                 match sc.out.iter().find(|f| f.mask & (1 << k) != 0) {
                     None => {
                         d.real.set(i, false);
@@ -340,19 +354,21 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
 /// sample's plane (rule 1). It compresses to one fragment, computed here with
 /// exactly the arithmetic of [`compress_pixel`] and written back without
 /// touching the planes that cannot change (kind, source). Returns false,
-/// changing nothing, for any other pixel.
+/// changing nothing, for any other pixel. `pss == p.ss`.
+#[inline(always)]
 fn one_plane_fast_path(
     d: &mut DestPlanes,
     views: &[Option<SampleView>],
     idx: &[usize],
     p: &AbufferParams,
+    pss: u32,
     stats: &mut AbufferStats,
 ) -> bool {
     let Some(Some(s0)) = views.first() else { return false };
     if !s0.real {
         return false;
     }
-    let (ox0, oy0) = (offset(p.ss, 0), offset(p.ss, 0));
+    let (ox0, oy0) = (offset(pss, 0), offset(pss, 0));
     let f = Fragment {
         colour: [0.0; 3],
         inv_z: s0.inv_z - s0.slopes[0] * ox0 - s0.slopes[1] * oy0,
@@ -371,7 +387,7 @@ fn one_plane_fast_path(
             return false;
         }
         if k > 0 {
-            let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+            let (ox, oy) = (offset(pss, k as u32 % pss), offset(pss, k as u32 / pss));
             let pred = plane_at(&f, ox, oy) as f64;
             if (pred - s.inv_z as f64).abs() > slope_term + p.rel_tol * s.inv_z as f64 {
                 return false;
@@ -387,7 +403,7 @@ fn one_plane_fast_path(
     let colour = sum.map(|c| (c / n) as f32);
     let weight = (wsum / n) as f32;
     for (k, &i) in idx.iter().enumerate() {
-        let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
+        let (ox, oy) = (offset(pss, k as u32 % pss), offset(pss, k as u32 / pss));
         d.colour[i] = colour;
         d.inv_z[i] = plane_at(&f, ox, oy);
         d.slopes[i] = f.slopes;
