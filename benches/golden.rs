@@ -16,10 +16,9 @@ use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_
 use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
 use postwarp::methods::forward_splat;
-use postwarp::path::predict::predict_pose;
 use postwarp::scene::Scene;
-use postwarp::tracegen::{TraceSpec, scene_path};
-use postwarp_rtl::{Camera, FrameCommands, SampleImage};
+use postwarp::tracegen::{TraceSpec, frame_in_memory};
+use postwarp_rtl::{FrameCommands, SampleImage};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -35,33 +34,10 @@ struct Input {
 /// Rebuild what `make-trace` writes for derived frame [`FRAME`] of `room`.
 fn input() -> Input {
     let spec = TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() };
-    let ss = spec.supersample;
     let scene = Scene::builtin("room").expect("built-in scene `room`");
-    let path = scene_path(&scene, spec.path).expect("room's spline path");
-    let ref_k = spec.reference_intrinsics().expect("reference intrinsics");
-    let prev = spec.previous_reference(FRAME);
-    let cams: Vec<(usize, Camera)> = [prev, prev + 1]
-        .into_iter()
-        .map(|j| {
-            let t = j as f64 / spec.ref_rate_hz;
-            (j, Camera { intrinsics: ref_k, pose: predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s) })
-        })
-        .collect();
-    let t = FRAME as f64 / spec.derived_rate_hz;
-    let derived = Camera { intrinsics: spec.display_intrinsics(), pose: path.pose(spec.start_s + t) };
-    let cmd = FrameCommands::new(FRAME, derived, ss, &cams);
+    let (cmd, imgs) = frame_in_memory(&scene, &spec, FRAME).expect("bench frame");
     let cfg = GoldenConfig::default();
-    let refs = cams
-        .iter()
-        .map(|(_, cam)| {
-            let mut img = scene.render(cam, ss);
-            // The trace stores colour as half.
-            for c in img.colour.iter_mut().flatten() {
-                *c = exr::prelude::f16::from_f32(*c).to_f32();
-            }
-            prepare_reference(&img, ss, &cfg)
-        })
-        .collect();
+    let refs = imgs.iter().map(|img| prepare_reference(img, spec.supersample, &cfg)).collect();
     Input { cmd, refs }
 }
 
