@@ -16,6 +16,9 @@ use postwarp_rtl::traversal::{Line, Major, Rank, forward_lines, reverse_lines};
 use postwarp_rtl::units::hole_fill::{HoleFillCounters, HoleFillParams, HoleFillUnit};
 use proptest::prelude::*;
 
+mod common;
+use common::props::{epipole_strategy, finite};
+
 // ---------------------------------------------------------------- traversal
 
 fn flat(lines: &[Line]) -> Vec<(u32, u32)> {
@@ -78,11 +81,6 @@ fn check_order(w: u32, h: u32, e: &Epipole) {
     let mut all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
     all.sort_by_key(|&(x, y)| r.rank(x, y));
     assert_eq!(all, want, "{ctx}: rank sort");
-}
-
-/// Finite epipole at `(px, py)` with homogeneous weight `ew`.
-fn finite(px: f64, py: f64, ew: f64) -> Epipole {
-    Epipole { h: DVec3::new(px * ew, py * ew, ew) }
 }
 
 /// Epipole coordinates along an axis of `n` samples: outside on both sides,
@@ -181,28 +179,8 @@ fn sequencer_matches_golden_for_far_and_near_infinite_epipoles() {
     }
 }
 
-/// Random epipoles of every kind.
-fn epipole_strategy() -> impl Strategy<Value = Epipole> {
-    let ew = prop_oneof![-4.0f64..-1e-3, 1e-3f64..4.0];
-    prop_oneof![
-        // Anywhere, front or behind.
-        (-40.0f64..60.0, -40.0f64..60.0, ew).prop_map(|(x, y, w)| finite(x, y, w)),
-        // On the half-sample grid (sample centres, rows, columns, diagonals).
-        (-8i32..40, -8i32..40, prop::sample::select(vec![1.0, -1.0, 0.5, -2.0])).prop_map(|(x, y, w)| finite(
-            x as f64 / 2.0,
-            y as f64 / 2.0,
-            w
-        )),
-        // At infinity.
-        (0.0f64..std::f64::consts::TAU).prop_map(|a| Epipole { h: DVec3::new(a.cos(), a.sin(), 0.0) }),
-        // Any homogeneous vector.
-        (-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0).prop_map(|(x, y, z)| Epipole { h: DVec3::new(x, y, z) }),
-        Just(Epipole { h: DVec3::ZERO }),
-    ]
-}
-
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+    #![proptest_config(common::prop_config(400))]
 
     #[test]
     fn sequencer_matches_golden_for_random_epipoles(w in 1u32..24, h in 1u32..24, e in epipole_strategy()) {
@@ -331,7 +309,7 @@ fn planes_from(w: u32, h: u32, spec: &[SampleSpec]) -> DestPlanes {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+    #![proptest_config(common::prop_config(300))]
 
     #[test]
     fn hole_fill_unit_matches_golden_bit_for_bit(

@@ -4,6 +4,8 @@
 //! `golden_general.rs`.
 #![allow(dead_code)]
 
+pub mod props;
+
 use glam::{DQuat, DVec3};
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
 
@@ -81,5 +83,11 @@ pub fn render(cam: &Camera, ss: u32, layers: &[Layer]) -> SampleImage {
 /// `tests/<suite>.proptest-regressions` and replayed first.
 pub fn prop_config(default: u32) -> proptest::test_runner::Config {
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default);
-    proptest::test_runner::Config { cases, ..proptest::test_runner::Config::default() }
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource(
+            "proptest-regressions",
+        ))),
+        ..proptest::test_runner::Config::default()
+    }
 }
