@@ -35,6 +35,28 @@ pub struct Args {
     /// Reconstruction: anti-aliased rectangles or mesh + edge splats [default: aa-rect].
     #[arg(long, value_enum)]
     pub reconstruction: Option<Reconstruction>,
+    /// Run a comparison method instead of the configured golden model
+    /// (`postwarp methods` lists them; `mark-aa` and `mark-general` are the
+    /// golden model's defaults behind the same interface).
+    #[arg(long)]
+    pub method: Option<String>,
+    /// Hole fill to combine with `--method` [default: the one its paper uses].
+    #[arg(long, requires = "method")]
+    pub hole_fill: Option<String>,
+    /// Runs per frame with `--method`; `host_ms` is their median.
+    #[arg(long, default_value_t = 3, requires = "method")]
+    pub runs: u32,
+}
+
+/// True if any golden knob flag or `--config` was given.
+fn knobs_given(a: &Args) -> bool {
+    a.config.is_some()
+        || a.threshold.is_some()
+        || a.abuffer_fragments.is_some()
+        || a.no_hole_fill
+        || a.over_limit.is_some()
+        || a.warp_order.is_some()
+        || a.reconstruction.is_some()
 }
 
 /// Build the configuration from `--config` and the knob flags.
@@ -69,6 +91,9 @@ pub fn config(a: &Args) -> anyhow::Result<GoldenConfig> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
+    if let Some(name) = &a.method {
+        return run_method(&a, name);
+    }
     let cfg = config(&a)?;
     let trace = Trace::open(&a.trace)?;
     let r = run_golden(&trace, &cfg, &a.out)?;
@@ -90,6 +115,36 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             r.report["frames"].as_array().map(Vec::as_slice).unwrap_or(&[]),
             &r.report["mean"]
         )
+    );
+    println!("wrote {}", a.out.join("report.json").display());
+    Ok(())
+}
+
+/// `--method NAME [--hole-fill NAME]`.
+fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        !knobs_given(a),
+        "--config and the golden knob flags configure the golden model; with --method each method runs with its documented defaults (docs/methods.md)"
+    );
+    let rec = crate::methods::reconstruction(name)?;
+    let fill_name = a.hole_fill.clone().unwrap_or_else(|| rec.info().default_hole_fill.to_string());
+    let fill = crate::methods::hole_fill(&fill_name)?;
+    let trace = Trace::open(&a.trace)?;
+    let r = crate::run::method::run_method(&trace, rec.as_ref(), fill.as_ref(), a.runs, &a.out)?;
+    println!(
+        "{}: {} frames, method {} + hole fill {} ({}), host_ms = median of {} runs",
+        trace.manifest.display(),
+        trace.derived.len(),
+        rec.info().name,
+        fill.info().name,
+        rec.info().paper,
+        a.runs
+    );
+    print!("{}", r.table);
+    println!(
+        "primitives per frame (mean): {} {}",
+        r.report["mean"]["primitives"].as_f64().map_or("-".into(), |v| format!("{v:.0}")),
+        rec.info().primitive
     );
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())

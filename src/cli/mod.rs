@@ -5,6 +5,7 @@ mod golden;
 mod import;
 mod info;
 mod make_trace;
+mod methods;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -40,6 +41,10 @@ enum Command {
     /// model: derived frames as PNG, cycles, DRAM bytes per client, cache
     /// hits and misses, unit utilisation, report.json and a summary.
     Simulate(simulate::Args),
+    /// List the comparison methods (reconstructions and hole fills) that
+    /// `postwarp golden --method NAME [--hole-fill NAME]` runs, with the
+    /// paper each comes from.
+    Methods(methods::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -62,5 +67,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::ImportMiddlebury(a) => import::run(a),
         Command::Golden(a) => golden::run(a),
         Command::Simulate(a) => simulate::run(a),
+        Command::Methods(a) => methods::run(a),
     }
 }

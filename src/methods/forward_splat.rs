@@ -16,9 +16,9 @@
 //!    already there stays.
 //! 4. References are warped in warp order into one buffer; each reference in
 //!    raster order (the order matters only for exact ties).
-//! 5. Resolve: each pixel is the mean of its `ss x ss` samples, empty
-//!    samples counting as black; a pixel is *covered* when every one of its
-//!    samples was written.
+//! 5. Resolve (`golden::resolve`): each pixel is the mean of its `ss x ss`
+//!    samples, empty samples counting as black; a pixel is *covered* when
+//!    every one of its samples was written.
 //!
 //! Not modelled, on purpose: reconstruction (no kernels: a magnified surface
 //! leaves pinholes between its samples, a minified one keeps whichever
@@ -28,32 +28,12 @@
 //!
 //! [`ReferenceWarp`]: postwarp_rtl::ReferenceWarp
 
+use super::{Counters, Input, MethodInfo, Reconstruction};
+use crate::golden::planes::DestPlanes;
+use crate::golden::resolve::resolve;
 use bitvec::vec::BitVec;
 use postwarp_rtl::{FrameCommands, SampleImage, WarpSetup};
 use serde::Serialize;
-
-/// The derived frame's per-sample planes.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SplatPlanes {
-    /// Width (samples).
-    pub width: u32,
-    /// Height (samples).
-    pub height: u32,
-    /// Linear RGB of the winning sample (black where empty).
-    pub colour: Vec<[f32; 3]>,
-    /// Derived-camera 1/Z of the winning sample (1/scene unit; 0 where empty).
-    pub inv_z: Vec<f32>,
-    /// Set where some reference sample was written.
-    pub valid: BitVec,
-}
-
-impl SplatPlanes {
-    /// An empty derived frame of `width x height` samples.
-    pub fn new(width: u32, height: u32) -> SplatPlanes {
-        let n = width as usize * height as usize;
-        SplatPlanes { width, height, colour: vec![[0.0; 3]; n], inv_z: vec![0.0; n], valid: BitVec::repeat(false, n) }
-    }
-}
 
 /// Counters of one derived frame (units: reference samples, over all warps;
 /// the last five add up to `reference_samples`).
@@ -77,7 +57,7 @@ pub struct ForwardSplatStats {
 #[derive(Clone, Debug)]
 pub struct ForwardSplatFrame {
     /// Final per-sample planes.
-    pub samples: SplatPlanes,
+    pub samples: DestPlanes,
     /// Resolved display pixels (linear RGB).
     pub pixels: Vec<[f32; 3]>,
     /// Pixels whose samples were all written.
@@ -96,19 +76,27 @@ pub fn forward_splat(cmd: &FrameCommands, refs: &[&SampleImage]) -> ForwardSplat
     assert_eq!(refs.len(), cmd.warps.len(), "one reference image per warp");
     let ss = cmd.supersample;
     let dst = cmd.derived_camera.sample_grid(ss).intrinsics;
-    let mut d = SplatPlanes::new(dst.width, dst.height);
-    let mut st = ForwardSplatStats::default();
-    for (warp, img) in cmd.warps.iter().zip(refs) {
-        let src = &warp.reference_camera.intrinsics;
-        assert_eq!((img.width, img.height), (src.width, src.height), "reference image size");
-        splat_reference(&warp.setup, img, &mut d, &mut st);
-    }
+    let mut d = DestPlanes::new(dst.width, dst.height);
+    let st = forward_splat_into(cmd, refs, &mut d);
     let (pixels, covered) = resolve(&d, ss);
     ForwardSplatFrame { samples: d, pixels, covered, stats: st }
 }
 
+/// Rules 1–4 into `d` (an empty frame of the derived sample grid's size);
+/// returns the counters.
+pub fn forward_splat_into(cmd: &FrameCommands, refs: &[&SampleImage], d: &mut DestPlanes) -> ForwardSplatStats {
+    assert_eq!(refs.len(), cmd.warps.len(), "one reference image per warp");
+    let mut st = ForwardSplatStats::default();
+    for (j, (warp, img)) in cmd.warps.iter().zip(refs).enumerate() {
+        let src = &warp.reference_camera.intrinsics;
+        assert_eq!((img.width, img.height), (src.width, src.height), "reference image size");
+        splat_reference(&warp.setup, img, j as u8, d, &mut st);
+    }
+    st
+}
+
 /// Rules 1-4 for one reference.
-fn splat_reference(setup: &WarpSetup, img: &SampleImage, d: &mut SplatPlanes, st: &mut ForwardSplatStats) {
+fn splat_reference(setup: &WarpSetup, img: &SampleImage, source: u8, d: &mut DestPlanes, st: &mut ForwardSplatStats) {
     let w = img.width as usize;
     let (dw, dh) = (d.width as f64, d.height as f64);
     for i in img.valid.iter_ones() {
@@ -127,8 +115,8 @@ fn splat_reference(setup: &WarpSetup, img: &SampleImage, d: &mut SplatPlanes, st
         }
         let k = ry as usize * d.width as usize + rx as usize;
         let inv_z = t.inv_z as f32;
-        if !d.valid[k] {
-            d.valid.set(k, true);
+        if !d.real[k] {
+            d.real.set(k, true);
             st.filled += 1;
         } else if inv_z > d.inv_z[k] {
             st.nearer += 1;
@@ -138,33 +126,33 @@ fn splat_reference(setup: &WarpSetup, img: &SampleImage, d: &mut SplatPlanes, st
         }
         d.inv_z[k] = inv_z;
         d.colour[k] = img.colour[i];
+        d.source[k] = source;
     }
 }
 
-/// Rule 5.
-fn resolve(d: &SplatPlanes, ss: u32) -> (Vec<[f32; 3]>, BitVec) {
-    let (pw, ph) = (d.width / ss.max(1), d.height / ss.max(1));
-    let n = (ss * ss) as f64;
-    let mut pixels = Vec::with_capacity((pw * ph) as usize);
-    let mut covered = BitVec::with_capacity((pw * ph) as usize);
-    for py in 0..ph {
-        for px in 0..pw {
-            let mut acc = [0.0f64; 3];
-            let mut all = true;
-            for j in 0..ss {
-                for i in 0..ss {
-                    let k = ((py * ss + j) * d.width + px * ss + i) as usize;
-                    all &= d.valid[k];
-                    for (a, v) in acc.iter_mut().zip(d.colour[k]) {
-                        *a += v as f64;
-                    }
-                }
-            }
-            pixels.push(acc.map(|a| (a / n) as f32));
-            covered.push(all);
+/// The forward splat as a [`Reconstruction`] (`forward-splat`).
+pub struct ForwardSplat;
+
+impl Reconstruction for ForwardSplat {
+    fn info(&self) -> MethodInfo {
+        MethodInfo {
+            name: "forward-splat",
+            description: "plain forward splat: each reference sample writes its nearest derived sample, depth test",
+            paper: "baseline (anchors; 001 Smit et al. §3 without splat sizes)",
+            primitive: "splats",
+            default_hole_fill: "none",
         }
     }
-    (pixels, covered)
+
+    fn reconstruct(&self, input: &Input, out: &mut DestPlanes) -> Counters {
+        let st = forward_splat_into(input.cmd, input.refs, out);
+        let drawn = st.filled + st.nearer + st.lost;
+        let mut extra = serde_json::Map::new();
+        for (k, v) in [("culled_samples", st.culled_samples), ("off_image", st.off_image), ("lost", st.lost)] {
+            extra.insert(k.into(), v.into());
+        }
+        Counters { primitives: drawn, extra }
+    }
 }
 
 #[cfg(test)]
@@ -211,7 +199,7 @@ mod tests {
         let img = image(24, 16, |x, y| ((x * 7 + y * 3) % 11 != 0).then_some(1.0 + ((x * 5 + y) % 9) as f32));
         let cmd = FrameCommands::new(0, c, ss, &[(0, c)]);
         let f = forward_splat(&cmd, &[&img]);
-        assert_eq!(f.samples.valid, img.valid);
+        assert_eq!(f.samples.real, img.valid);
         for i in img.valid.iter_ones() {
             assert_eq!(f.samples.colour[i], img.colour[i], "sample {i}");
             assert!((f.samples.inv_z[i] - 1.0 / img.z[i]).abs() < 1e-6, "sample {i}");
@@ -239,11 +227,11 @@ mod tests {
             for x in 0..40u32 {
                 let k = img.index(x, y);
                 if x + 4 < 40 {
-                    assert!(f.samples.valid[k], "({x}, {y})");
+                    assert!(f.samples.real[k], "({x}, {y})");
                     assert_eq!(f.samples.colour[k], img.colour[img.index(x + 4, y)], "({x}, {y})");
                     assert!((f.samples.inv_z[k] - 0.2).abs() < 1e-6);
                 } else {
-                    assert!(!f.samples.valid[k], "({x}, {y})");
+                    assert!(!f.samples.real[k], "({x}, {y})");
                 }
             }
         }

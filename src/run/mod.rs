@@ -4,4 +4,5 @@
 pub mod golden;
 pub mod hw_config;
 pub mod hw_config_toml;
+pub mod method;
 pub mod simulate;

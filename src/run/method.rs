@@ -1,0 +1,169 @@
+//! `postwarp golden --method NAME [--hole-fill NAME]`: run any comparison
+//! method (`methods`) over every derived frame of a trace, score each frame
+//! against its ground truth, write the images and the report.
+//!
+//! Rules (the same for every method; `methods` module doc):
+//! 1. Each reference frame is loaded once and passed through
+//!    [`Reconstruction::prepare`], timed apart (`prepare_ms`), and dropped
+//!    after the last derived frame that uses it.
+//! 2. Each frame runs `runs` times on this thread into a fresh output
+//!    frame allocated before the clock starts; `host_ms` is the median. All
+//!    runs must give the same samples (else the run fails: the method is
+//!    not deterministic).
+//! 3. Outputs per frame: `frame-NNNN.png`, `holes-NNNN.png` and, with
+//!    ground truth, `diff-NNNN.png`; then `report.json`. All written
+//!    atomically.
+
+use crate::methods::{self, HoleFill, Input, MethodFrame, Prepared, Reconstruction};
+use crate::metrics::{MetricInput, evaluate};
+use crate::report::images::{write_diff_heatmap, write_hole_mask};
+use crate::report::{frame_entry, mean_entry, table};
+use crate::trace::Trace;
+use anyhow::Context;
+use serde_json::{Value, json};
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::Instant;
+
+/// What a method run produced.
+pub struct MethodRun {
+    /// The report (`report.json` contents).
+    pub report: Value,
+    /// The printed table.
+    pub table: String,
+}
+
+/// Median of `v` (not empty).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+/// Run `rec` + `fill` on `trace`, `runs` times per frame, writing into `out`.
+pub fn run_method(
+    trace: &Trace,
+    rec: &dyn Reconstruction,
+    fill: &dyn HoleFill,
+    runs: u32,
+    out: &Path,
+) -> anyhow::Result<MethodRun> {
+    anyhow::ensure!(runs >= 1, "--runs must be at least 1");
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let ss = trace.display.supersample;
+    let (w, h) = (trace.display.width, trace.display.height);
+    let mut last_use = HashMap::new();
+    for (k, f) in trace.derived.iter().enumerate() {
+        for &r in &f.references {
+            last_use.insert(r, k);
+        }
+    }
+    let mut loaded: HashMap<usize, (postwarp_rtl::SampleImage, Prepared)> = HashMap::new();
+    let mut prepare_ms = 0.0;
+    let mut frames = Vec::new();
+    let bar = crate::progress::bar(trace.derived.len() as u64, rec.info().name);
+    for (k, f) in trace.derived.iter().enumerate() {
+        for &r in &f.references {
+            if let std::collections::hash_map::Entry::Vacant(e) = loaded.entry(r) {
+                let img = trace.load_reference(r)?.samples;
+                let t = Instant::now();
+                let p = rec.prepare(&img, ss);
+                prepare_ms += t.elapsed().as_secs_f64() * 1e3;
+                e.insert((img, p));
+            }
+        }
+        let cmd = trace.frame_commands(k);
+        let refs: Vec<&postwarp_rtl::SampleImage> = f.references.iter().map(|r| &loaded[r].0).collect();
+        let prepared: Vec<&Prepared> = f.references.iter().map(|r| &loaded[r].1).collect();
+        let input = Input { cmd: &cmd, refs: &refs, prepared: &prepared };
+        let mut times = Vec::new();
+        let mut frame: Option<MethodFrame> = None;
+        for run in 0..runs {
+            let empty = input.empty_frame();
+            let t = Instant::now();
+            let got = methods::render(rec, fill, &input, empty);
+            times.push(t.elapsed().as_secs_f64() * 1e3);
+            if let Some(first) = &frame {
+                anyhow::ensure!(
+                    first.samples == got.samples,
+                    "method {} with hole fill {} gave different samples on run {run} of frame {k}: not deterministic",
+                    rec.info().name,
+                    fill.info().name
+                );
+            } else {
+                frame = Some(got);
+            }
+        }
+        let frame = frame.expect("runs >= 1");
+        let quality = match trace.load_truth(k)? {
+            None => None,
+            Some(truth) => {
+                let q = evaluate(&MetricInput {
+                    width: w,
+                    height: h,
+                    image: &frame.pixels,
+                    truth: &truth.colour,
+                    known: &truth.known,
+                    covered: Some(&frame.covered),
+                })?;
+                write_diff_heatmap(
+                    &out.join(format!("diff-{k:04}.png")),
+                    w,
+                    h,
+                    &frame.pixels,
+                    &truth.colour,
+                    &truth.known,
+                    64.0,
+                )?;
+                Some(q)
+            }
+        };
+        crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
+        write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &frame.samples.real, &frame.samples.hole)?;
+        let mut extra = serde_json::Map::new();
+        extra.insert("primitives".into(), json!(frame.reconstruction.primitives));
+        extra.insert("hole_samples".into(), json!(frame.samples.hole.count_ones()));
+        let empty = (0..frame.samples.len()).filter(|&i| !frame.samples.real[i] && !frame.samples.hole[i]).count();
+        extra.insert("empty_samples".into(), json!(empty));
+        extra.insert("reconstruction".into(), Value::Object(frame.reconstruction.extra.clone()));
+        extra.insert("hole_fill".into(), Value::Object(frame.hole_fill.extra.clone()));
+        frames.push(frame_entry(k, quality.as_ref(), median(times), Value::Object(extra)));
+        loaded.retain(|r, _| last_use[r] > k);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    let mut mean = mean_entry(&frames);
+    if let Value::Object(m) = &mut mean {
+        // Nested counter objects are per frame only.
+        m.remove("reconstruction");
+        m.remove("hole_fill");
+    }
+    let table = table::render(&frames, &mean);
+    let info = rec.info();
+    let report = json!({
+        "trace": trace.manifest.display().to_string(),
+        "method": info.name,
+        "hole_fill": fill.info().name,
+        "paper": info.paper,
+        "primitive": info.primitive,
+        "runs": runs,
+        "references": {"prepare_ms": prepare_ms},
+        "frames": frames,
+        "mean": mean,
+    });
+    let text = serde_json::to_string_pretty(&report)? + "\n";
+    crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    Ok(MethodRun { report, table })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::median;
+
+    #[test]
+    fn median_of_odd_and_even_counts() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(vec![7.0]), 7.0);
+    }
+}
