@@ -1,6 +1,7 @@
 //! The `postwarp` command line. One file per subcommand; each parses its
 //! flags with clap and calls into the library.
 
+mod compare;
 mod golden;
 mod import;
 mod info;
@@ -45,6 +46,10 @@ enum Command {
     /// `postwarp golden --method NAME [--hole-fill NAME]` runs, with the
     /// paper each comes from.
     Methods(methods::Args),
+    /// Run every comparison method on the traces given, one after another,
+    /// and write a table of primitives, host ms per frame and quality
+    /// (compare.md, compare.csv) with each run's frames and report.
+    Compare(compare::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -68,5 +73,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Golden(a) => golden::run(a),
         Command::Simulate(a) => simulate::run(a),
         Command::Methods(a) => methods::run(a),
+        Command::Compare(a) => compare::run(a),
     }
 }

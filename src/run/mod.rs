@@ -1,6 +1,7 @@
 //! Orchestration: trace → frame commands → engines → images, metrics and
 //! report files. One file per engine run.
 
+pub mod compare;
 pub mod golden;
 pub mod hw_config;
 pub mod hw_config_toml;

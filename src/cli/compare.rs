@@ -1,0 +1,57 @@
+//! `postwarp compare`: every comparison method on the traces given, as one
+//! table (`docs/methods.md`).
+
+use crate::methods::{HoleFill, Reconstruction, hole_fill, hole_fills, reconstruction, reconstructions};
+use crate::run::compare::run_compare;
+use std::path::PathBuf;
+
+/// Flags of `postwarp compare`.
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Trace directories (or their `postwarp.trace` manifests).
+    #[arg(required = true)]
+    pub traces: Vec<PathBuf>,
+    /// Output directory: `<trace>/<method>+<fill>/` per run, `compare.csv`, `compare.md`.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Methods to run, comma-separated [default: every method].
+    #[arg(long, value_delimiter = ',')]
+    pub methods: Vec<String>,
+    /// Hole fills: `default` (each method's own), `all`, or names, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "default")]
+    pub hole_fills: Vec<String>,
+    /// Runs per frame; `host_ms` is their median.
+    #[arg(long, default_value_t = 3)]
+    pub runs: u32,
+}
+
+type Pair = (Box<dyn Reconstruction>, Box<dyn HoleFill>);
+
+/// The (method, hole fill) pairs the flags select, in listing order.
+pub fn pairs(a: &Args) -> anyhow::Result<Vec<Pair>> {
+    let names: Vec<String> = if a.methods.is_empty() {
+        reconstructions().iter().map(|m| m.info().name.to_string()).collect()
+    } else {
+        a.methods.clone()
+    };
+    let mut out = Vec::new();
+    for n in &names {
+        let fills: Vec<String> = match a.hole_fills.as_slice() {
+            [d] if d == "default" => vec![reconstruction(n)?.info().default_hole_fill.to_string()],
+            [d] if d == "all" => hole_fills().iter().map(|f| f.info().name.to_string()).collect(),
+            list => list.to_vec(),
+        };
+        for f in fills {
+            out.push((reconstruction(n)?, hole_fill(&f)?));
+        }
+    }
+    Ok(out)
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let pairs = pairs(&a)?;
+    let rows = run_compare(&a.traces, &pairs, a.runs, &a.out)?;
+    print!("{}", crate::run::compare::markdown(&rows));
+    println!("wrote {} and {}", a.out.join("compare.md").display(), a.out.join("compare.csv").display());
+    Ok(())
+}
