@@ -1,8 +1,8 @@
 //! `postwarp compare`: every comparison method on the traces given, as one
 //! table (`docs/methods.md`).
 
-use crate::methods::{HoleFill, Reconstruction, hole_fill, hole_fills, reconstruction, reconstructions};
-use crate::run::compare::run_compare;
+use crate::methods::{hole_fill, hole_fills, reconstruction, reconstructions};
+use crate::run::compare::{Pair, run_compare};
 use std::path::PathBuf;
 
 /// Flags of `postwarp compare`.
@@ -24,8 +24,6 @@ pub struct Args {
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
 }
-
-type Pair = (Box<dyn Reconstruction>, Box<dyn HoleFill>);
 
 /// The (method, hole fill) pairs the flags select, in listing order.
 pub fn pairs(a: &Args) -> anyhow::Result<Vec<Pair>> {

@@ -48,13 +48,11 @@ fn trace_name(p: &Path) -> String {
     p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| p.display().to_string())
 }
 
+/// A reconstruction and the hole fill it runs with.
+pub type Pair = (Box<dyn Reconstruction>, Box<dyn HoleFill>);
+
 /// Run every `(reconstruction, hole fill)` pair on every trace.
-pub fn run_compare(
-    traces: &[PathBuf],
-    pairs: &[(Box<dyn Reconstruction>, Box<dyn HoleFill>)],
-    runs: u32,
-    out: &Path,
-) -> anyhow::Result<Vec<Row>> {
+pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut rows = Vec::new();
     for t in traces {
