@@ -244,7 +244,8 @@ impl EngineConfig {
         let range = |name: &str, v: u64, lo: u64, hi: u64, unit: &str| {
             if (lo..=hi).contains(&v) { Ok(()) } else { Err(format!("{name} = {v}: expected {lo} to {hi} {unit}")) }
         };
-        range("supersample", self.supersample.into(), 1, 8, "samples")?;
+        // The A-buffer packs at most 16 samples per pixel (a 16-bit mask).
+        range("supersample", self.supersample.into(), 1, 4, "samples")?;
         range("max_fragments", self.max_fragments.into(), 0, 16, "fragments/pixel")?;
         range("kernel_limit", self.kernel_limit.into(), 1, 64, "samples")?;
         range("rects_per_cycle", self.rects_per_cycle.into(), 1, 256, "rectangles/cycle")?;
@@ -334,6 +335,7 @@ mod tests {
     fn invalid_cases() -> Vec<(&'static str, Breaker)> {
         vec![
             ("supersample", |c| c.supersample = 0),
+            ("supersample", |c| c.supersample = 5),
             ("max_fragments", |c| c.max_fragments = 17),
             ("kernel_limit", |c| c.kernel_limit = 0),
             ("rects_per_cycle", |c| c.rects_per_cycle = 0),
