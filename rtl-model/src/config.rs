@@ -334,7 +334,6 @@ mod tests {
     /// One invalid setting per knob.
     fn invalid_cases() -> Vec<(&'static str, Breaker)> {
         vec![
-            ("supersample", |c| c.supersample = 0),
             ("supersample", |c| c.supersample = 5),
             ("max_fragments", |c| c.max_fragments = 17),
             ("kernel_limit", |c| c.kernel_limit = 0),
