@@ -23,6 +23,7 @@
 pub mod forward_splat;
 pub mod mark;
 pub mod pull_push;
+pub mod stretch;
 
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
@@ -151,7 +152,7 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
 
 /// Every hole fill, in listing order.
 pub fn hole_fills() -> Vec<Box<dyn HoleFill>> {
-    vec![Box::new(NoFill), Box::new(mark::Epipolar), Box::new(pull_push::PullPush)]
+    vec![Box::new(NoFill), Box::new(mark::Epipolar), Box::new(stretch::Stretch), Box::new(pull_push::PullPush)]
 }
 
 /// The reconstruction called `name`, or an error listing the names.
