@@ -23,6 +23,7 @@
 pub mod forward_splat;
 pub mod mark;
 pub mod pull_push;
+pub mod rubber_sheet;
 pub mod stretch;
 
 use crate::golden::planes::DestPlanes;
@@ -147,6 +148,7 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(mark::MarkAa::default()),
         Box::new(mark::MarkGeneral::default()),
         Box::new(forward_splat::ForwardSplat),
+        Box::new(rubber_sheet::RubberSheet),
     ]
 }
 
