@@ -39,14 +39,19 @@
 //! 6. One pass per frame, after the reconstruction, whatever the number of
 //!    references (the fill does not depend on the references' epipoles).
 //!
-//! Parameters (fixed, not knobs): pull filter = 3x3 tent (1/2, 1, 1/2) per
-//! axis, Gortler §3.3's choice of a tent; confidence clamp = 1 (Gortler);
-//! push interpolation = bilinear (the transpose of the tent); pyramid depth
-//! = down to 1x1 (`ceil(log2(max(w, h))) + 1` levels).
+//! Parameters (fixed, not knobs):
+//! - pull filter: 3x3 tent, (1/2, 1, 1/2) per axis (unitless weights);
+//!   Gortler §3.3 filters with a tent;
+//! - confidence clamp: 1 (unitless), Gortler §3.3's `min(w, 1)`;
+//! - push interpolation: bilinear, the transpose of the tent (this model's
+//!   choice);
+//! - pyramid depth: down to 1x1, `ceil(log2(max(w, h))) + 1` levels
+//!   (Gortler: to the coarsest level).
 //!
 //! Counters (`Counters::extra`): `filled` (samples filled), `unreached`
 //! (empty samples left empty: only when the frame has no real sample),
-//! `levels` (pyramid levels, level 0 included).
+//! `levels` (pyramid levels, level 0 included; 0 when there was nothing to
+//! fill or nothing to fill from).
 //!
 //! Not modelled: depth (foreground and background colours mix alike in a
 //! disocclusion: the fill is not "background-first" like TR98's), the

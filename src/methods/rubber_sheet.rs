@@ -35,14 +35,17 @@
 //! 7. Order: references in warp order; groups in raster order of their top
 //!    left sample; (A, B, D) before (A, D, C); centres row by row.
 //!
-//! Parameters: none (no threshold: that is the point).
+//! Parameters: none. Compared with Mark's general path (`golden::general`),
+//! the discontinuity threshold (1.4, TR98 §6), the fold-over test and the
+//! edge splats are gone: that is the point.
 //!
-//! Primitives: triangles drawn (rule 4, back-facing ones included: they
-//! were set up and scanned). Counters (`Counters::extra`):
-//! `reference_samples`, `culled_samples`, `dropped_missing`,
-//! `dropped_culled`, `back_facing` (drawn, zero coverage by winding),
-//! `samples_written` (Z-test wins, empty or nearer), `lost` (Z-test
-//! losses).
+//! Primitives: triangles drawn (rule 4: all three vertices warped, so set
+//! up; back-facing and off-image ones included). Counters
+//! (`Counters::extra`): `reference_samples`, `culled_samples`,
+//! `dropped_missing`, `dropped_culled`, `back_facing` (drawn, zero
+//! coverage by winding or non-finite area), `off_image` (front-facing,
+//! bounding box off the image), `samples_written` (Z-test wins, empty or
+//! nearer), `lost` (Z-test losses).
 //!
 //! Not modelled: a low-pass filter on depth before meshing (which seed 000
 //! notes reduces the artefacts), TR98's old "low-confidence" mesh elements
@@ -73,6 +76,8 @@ pub struct RubberSheetStats {
     pub dropped_culled: u64,
     /// Drawn triangles of non-positive or non-finite derived area.
     pub back_facing: u64,
+    /// Drawn front-facing triangles whose bounding box misses the image.
+    pub off_image: u64,
     /// Derived samples written (Z-test wins).
     pub samples_written: u64,
     /// Candidate samples that lost the Z test.
@@ -158,6 +163,7 @@ fn draw(v: [Vertex; 3], colour: [[f32; 3]; 3], source: u8, d: &mut DestPlanes, s
         (y0.ceil().max(0.0) as i64, y1.floor().min(hf) as i64),
     );
     if win.0.0 > win.0.1 || win.1.0 > win.1.1 {
+        st.off_image += 1;
         return;
     }
     let z = v.map(|v| v.inv_z);
@@ -203,6 +209,7 @@ impl Reconstruction for RubberSheet {
             ("dropped_missing", st.dropped_missing),
             ("dropped_culled", st.dropped_culled),
             ("back_facing", st.back_facing),
+            ("off_image", st.off_image),
             ("samples_written", st.samples_written),
             ("lost", st.lost),
         ] {

@@ -42,8 +42,10 @@
 //!    largest weight wins outright. Ties keep the earlier warp.
 //! 5. Filled samples are flagged `hole`; real samples are never written.
 //!
-//! Parameters: none (no far taps, no distance limit: the search ends at the
-//! image border or the epipole).
+//! Parameters: none. Compared with Mark's fill (`golden::hole_fill`), the
+//! near taps (3), far taps (2 at ±4 samples past distance 4) and distance
+//! saturation (63 samples) are all gone: one tap, and the search ends only
+//! at the image border or the epipole.
 //!
 //! Counters (`Counters::extra`): `filled` (samples given a colour),
 //! `unreached` (empty samples no pass reached), `replaced` (fills a later
@@ -88,7 +90,9 @@ pub fn search(d: &DestPlanes, e: &Epipole, x: u32, y: u32, steps: &mut u64) -> O
     let v = back / m;
     let step_len = v.length();
     let (w, h) = (d.width as f64, d.height as f64);
-    for t in 1.. {
+    // Each step moves one sample along the major axis: out of the image
+    // after at most `max(w, h)` steps.
+    for t in 1..=d.width.max(d.height) {
         let q = p + v * t as f64;
         let distance = step_len * t as f64;
         if distance > limit {
@@ -105,7 +109,7 @@ pub fn search(d: &DestPlanes, e: &Epipole, x: u32, y: u32, steps: &mut u64) -> O
             return Some(Source { sample: k, distance });
         }
     }
-    unreachable!("the march leaves the image")
+    None
 }
 
 /// Counters of a stretch fill.
