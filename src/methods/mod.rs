@@ -22,6 +22,9 @@
 
 pub mod forward_splat;
 pub mod mark;
+pub mod pull_push;
+pub mod rubber_sheet;
+pub mod stretch;
 
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
@@ -145,12 +148,13 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(mark::MarkAa::default()),
         Box::new(mark::MarkGeneral::default()),
         Box::new(forward_splat::ForwardSplat),
+        Box::new(rubber_sheet::RubberSheet),
     ]
 }
 
 /// Every hole fill, in listing order.
 pub fn hole_fills() -> Vec<Box<dyn HoleFill>> {
-    vec![Box::new(NoFill), Box::new(mark::Epipolar)]
+    vec![Box::new(NoFill), Box::new(mark::Epipolar), Box::new(stretch::Stretch), Box::new(pull_push::PullPush)]
 }
 
 /// The reconstruction called `name`, or an error listing the names.
