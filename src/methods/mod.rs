@@ -20,6 +20,7 @@
 //! 3. `primitives` counts what the method draws (splats, quads, triangles,
 //!    rectangles); [`MethodInfo::primitive`] names the unit.
 
+pub mod didyk_grid;
 pub mod forward_splat;
 pub mod mark;
 
