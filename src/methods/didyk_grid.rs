@@ -174,13 +174,8 @@ impl DisparityMipMap {
             let below = levels.last().expect("level 0 exists");
             let (w, h) = (below.w.div_ceil(2), below.h.div_ceil(2));
             let m = w as usize * h as usize;
-            let mut l = Level {
-                w,
-                h,
-                lo: vec![[f32::INFINITY; 2]; m],
-                hi: vec![[f32::NEG_INFINITY; 2]; m],
-                count: vec![0; m],
-            };
+            let mut l =
+                Level { w, h, lo: vec![[f32::INFINITY; 2]; m], hi: vec![[f32::NEG_INFINITY; 2]; m], count: vec![0; m] };
             for j in 0..h {
                 for i in 0..w {
                     let k = j as usize * w as usize + i as usize;
