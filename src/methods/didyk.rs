@@ -250,10 +250,11 @@ fn texel(img: &SampleImage, cell: &Cell, u: f64, v: f64, filter: TextureFilter) 
         TextureFilter::Bilinear => {
             let (mx, my) = ((img.width - 1) as f64, (img.height - 1) as f64);
             let (u, v) = (u.clamp(0.0, mx), v.clamp(0.0, my));
-            let (fx, fy) = (u.floor(), v.floor());
+            // Non-negative after the clamp: the casts floor.
+            let (x0, y0) = (u as usize, v as usize);
             // Rule 5: weights to the GPU's 8 bits of sub-texel precision.
-            let (tx, ty) = (((u - fx) * 256.0).round() / 256.0, ((v - fy) * 256.0).round() / 256.0);
-            let (x0, y0) = (fx as usize, fy as usize);
+            let q = |t: f64| ((t * 256.0 + 0.5) as u32) as f64 / 256.0;
+            let (tx, ty) = (q(u - x0 as f64), q(v - y0 as f64));
             let (x1, y1) = ((x0 + 1).min(img.width as usize - 1), (y0 + 1).min(img.height as usize - 1));
             let mut acc = [0.0f64; 3];
             let mut wsum = 0.0;

@@ -62,6 +62,7 @@
 //! transform feedback, one geometry-shader pass per level, the 10+10+4-bit
 //! packing of position and level); the result is the same set of cells.
 
+use glam::DVec3;
 use postwarp_rtl::{SampleImage, WarpSetup};
 
 /// Subdivision parameters (rule 5).
@@ -96,16 +97,17 @@ pub fn pixel_disparity(setup: &WarpSetup, x: u32, y: u32, z: Option<f32>) -> Pix
     let Some(z) = z.filter(|z| z.is_finite() && *z > 0.0) else {
         return PixelDisparity::None;
     };
-    let (x, y) = (x as f64, y as f64);
-    let t = setup.warp(x, y, 1.0 / z as f64);
-    if !(t.w > 0.0 && t.position.is_finite()) {
+    // `WarpSetup::warp` at 1/Z and at 0, sharing `H·(x, y, 1)`.
+    let n0 = setup.h * DVec3::new(x as f64, y as f64, 1.0);
+    let n = n0 + setup.e_hat * (setup.s1 / z as f64);
+    let (near, far) = (n.truncate() / n.z, n0.truncate() / n0.z);
+    if !(n.z > 0.0 && near.is_finite()) {
         return PixelDisparity::None;
     }
-    let far = setup.warp(x, y, 0.0);
-    if !(far.w > 0.0 && far.position.is_finite()) {
+    if !(n0.z > 0.0 && far.is_finite()) {
         return PixelDisparity::Unmeasured;
     }
-    let d = t.position - far.position;
+    let d = near - far;
     let d = [d.x as f32, d.y as f32];
     if d.iter().all(|c| c.is_finite()) { PixelDisparity::At(d) } else { PixelDisparity::Unmeasured }
 }
