@@ -426,9 +426,8 @@ impl Didyk {
         Didyk { params: DidykParams::default(), form: Form::Multi }
     }
 
-    /// Draw reference `j` of `input` into a fresh layer.
-    fn layer(&self, input: &Input, j: usize, st: &mut DrawStats) -> WarpedLayer {
-        let (w, h) = input.size();
+    /// Draw reference `j` of `input` into a fresh `w x h` layer.
+    fn layer(&self, input: &Input, j: usize, (w, h): (u32, u32), st: &mut DrawStats) -> WarpedLayer {
         let mut l = WarpedLayer::new(w, h);
         let img = input.refs[j];
         let verts = match input.prepared.get(j).and_then(|p| p.downcast_ref::<VertexDepths>()) {
@@ -471,7 +470,8 @@ impl Reconstruction for Didyk {
             Form::Multi => n,
         };
         let mut st = DrawStats::default();
-        let layers: Vec<WarpedLayer> = (0..used).map(|j| self.layer(input, j, &mut st)).collect();
+        let size = (out.width, out.height);
+        let layers: Vec<WarpedLayer> = (0..used).map(|j| self.layer(input, j, size, &mut st)).collect();
         let blended = merge(&layers, out);
         let mut extra = Map::new();
         for (k, v) in [
