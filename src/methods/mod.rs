@@ -20,6 +20,9 @@
 //! 3. `primitives` counts what the method draws (splats, quads, triangles,
 //!    rectangles); [`MethodInfo::primitive`] names the unit.
 
+pub mod didyk;
+pub mod didyk_grid;
+pub mod didyk_inpaint;
 pub mod forward_splat;
 pub mod mark;
 pub mod pull_push;
@@ -149,12 +152,20 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(mark::MarkGeneral::default()),
         Box::new(forward_splat::ForwardSplat),
         Box::new(rubber_sheet::RubberSheet),
+        Box::new(didyk::Didyk::single()),
+        Box::new(didyk::Didyk::two_ref()),
     ]
 }
 
 /// Every hole fill, in listing order.
 pub fn hole_fills() -> Vec<Box<dyn HoleFill>> {
-    vec![Box::new(NoFill), Box::new(mark::Epipolar), Box::new(stretch::Stretch), Box::new(pull_push::PullPush)]
+    vec![
+        Box::new(NoFill),
+        Box::new(mark::Epipolar),
+        Box::new(stretch::Stretch),
+        Box::new(pull_push::PullPush),
+        Box::new(didyk_inpaint::DidykInpaint),
+    ]
 }
 
 /// The reconstruction called `name`, or an error listing the names.
