@@ -24,9 +24,12 @@ pub mod didyk;
 pub mod didyk_grid;
 pub mod didyk_inpaint;
 pub mod forward_splat;
+pub mod low_pass_fill;
 pub mod mark;
 pub mod pull_push;
 pub mod rubber_sheet;
+pub mod schollmeyer_grid;
+pub mod schollmeyer_quadtree;
 pub mod stretch;
 
 use crate::golden::planes::DestPlanes;
@@ -154,6 +157,9 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(rubber_sheet::RubberSheet),
         Box::new(didyk::Didyk::single()),
         Box::new(didyk::Didyk::two_ref()),
+        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Cross)),
+        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Partial)),
+        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Irregular)),
     ]
 }
 
@@ -165,6 +171,7 @@ pub fn hole_fills() -> Vec<Box<dyn HoleFill>> {
         Box::new(stretch::Stretch),
         Box::new(pull_push::PullPush),
         Box::new(didyk_inpaint::DidykInpaint),
+        Box::new(low_pass_fill::LowPass),
     ]
 }
 
