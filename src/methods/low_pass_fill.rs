@@ -56,7 +56,8 @@
 //! | depth rule | – | not closer than the weighted mean depth | paper |
 //!
 //! Counters: `filled`, `border_found` (rule 3–5), `fallback` (rule 6),
-//! `unfilled`, `pyramid_levels`.
+//! `unfilled`, `pyramid_levels` (levels built; 0 when the frame has no
+//! hole, in which case the pass stops at once).
 //!
 //! Not modelled: the GPU's mip-map hardware and the single shader pass
 //! shared with the A-buffer ray casting (§6.1); a refined (binary) border
@@ -237,11 +238,14 @@ impl HoleFill for LowPass {
     }
 
     fn fill(&self, input: &Input, d: &mut DestPlanes) -> Counters {
-        let levels = pyramid(d);
+        // No hole: nothing to do, and no pyramid to build (same output).
+        let any = (0..d.len()).any(|i| !d.real[i] && !d.hole[i]);
+        let levels = if any { pyramid(d) } else { Vec::new() };
         let (mut filled, mut found, mut fallback, mut unfilled) = (0u64, 0u64, 0u64, 0u64);
         let w = d.width as usize;
-        let top = levels.len() as u32 - 1;
-        for i in 0..d.len() {
+        let top = levels.len().saturating_sub(1) as u32;
+        let todo = if any { d.len() } else { 0 };
+        for i in 0..todo {
             if d.real[i] || d.hole[i] {
                 continue;
             }

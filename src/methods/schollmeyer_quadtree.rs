@@ -517,7 +517,8 @@ fn leaf(links: &Links, x: u32, y: u32, reduction: Reduction) -> (bool, f64) {
     let surface = match reduction {
         Reduction::Cross => left && right && top && bottom,
         Reduction::Partial | Reduction::Irregular => {
-            (left && top) || (top && right) || (right && bottom) || (bottom && left)
+            // Two adjacent sides: one of left/right and one of top/bottom.
+            (left || right) && (top || bottom)
         }
     };
     let mut error: f64 = 0.0;
@@ -577,8 +578,8 @@ mod tests {
                 }
             }
         }
-        for i in 0..img.len() {
-            assert_eq!(hits[i], img.valid[i] as u32, "sample {i}");
+        for (i, &n) in hits.iter().enumerate() {
+            assert_eq!(n, img.valid[i] as u32, "sample {i}");
         }
     }
 
