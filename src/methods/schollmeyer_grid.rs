@@ -481,10 +481,19 @@ mod tests {
     }
 
     fn run(m: &Schollmeyer, cmd: &FrameCommands, refs: &[&SampleImage]) -> crate::methods::MethodFrame {
+        run_with(m, &NoFill, cmd, refs)
+    }
+
+    fn run_with(
+        m: &Schollmeyer,
+        fill: &dyn crate::methods::HoleFill,
+        cmd: &FrameCommands,
+        refs: &[&SampleImage],
+    ) -> crate::methods::MethodFrame {
         let prepared: Vec<Prepared> = refs.iter().map(|r| m.prepare(r, cmd.supersample)).collect();
         let p: Vec<&Prepared> = prepared.iter().collect();
         let input = Input { cmd, refs, prepared: &p };
-        render(m, &NoFill, &input, input.empty_frame())
+        render(m, fill, &input, input.empty_frame())
     }
 
     #[test]
@@ -542,6 +551,11 @@ mod tests {
                 let cmd = FrameCommands::new(0, derived, 1, &[(0, c), (1, c)]);
                 for r in Reduction::ALL {
                     let _ = run(&Schollmeyer::new(r), &cmd, &[&img, &img]);
+                    let f =
+                        run_with(&Schollmeyer::new(r), &crate::methods::low_pass_fill::LowPass, &cmd, &[&img, &img]);
+                    // Every hole is filled unless nothing real was drawn.
+                    let empty = (0..f.samples.len()).filter(|&i| !f.samples.real[i] && !f.samples.hole[i]).count();
+                    assert!(empty == 0 || f.samples.real.not_any(), "{r:?} {w}x{h}: {empty} empty");
                 }
             }
         }
