@@ -87,7 +87,7 @@
 //! Parameters ([`QuadtreeParams`]):
 //! | name | unit | default | source |
 //! |---|---|---|---|
-//! | `epsilon` | relative second difference of 1/Z | 0.01 | ours (the paper names ε, no value): a 1 % change of slope in 1/Z; bridges at most a 1 % depth step (under 0.2 samples of parallax on the bundled traces), passes the curvature of the room's bunny and teapot (≈ 5·10⁻⁴) |
+//! | `epsilon` | relative second difference of 1/Z | 0.01 | ours (the paper names ε, no value): a 1 % change of slope in 1/Z; bridges at most a 1 % depth step (under 0.2 samples of parallax on the bundled traces), passes the curvature of the room's bunny and teapot (estimated ≈ 5·10⁻⁴) |
 //! | `error_threshold` τ | accumulated relative deviation | 0.02 | ours (paper: "a certain estimation error threshold"): a cell's mid-point may deviate about 1 % in 1/Z from the true surface |
 //! | `tile` | samples | 32 | paper §6 ("maximum node size ... 32x32 pixel") |
 //!
