@@ -22,6 +22,11 @@
 
 pub mod forward_splat;
 pub mod mark;
+pub mod smit_errors;
+pub mod smit_mesh;
+pub mod smit_point;
+pub mod smit_quad;
+pub mod smit_warp;
 
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
