@@ -150,6 +150,10 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(mark::MarkAa::default()),
         Box::new(mark::MarkGeneral::default()),
         Box::new(forward_splat::ForwardSplat),
+        Box::new(smit_point::SmitPoint::default()),
+        Box::new(smit_quad::SmitQuad::default()),
+        Box::new(smit_mesh::SmitMesh::default()),
+        Box::new(smit_mesh::SmitMesh::connected()),
     ]
 }
 
