@@ -57,7 +57,7 @@
 //!
 //! [`DEFAULT_TOLERANCE`]: super::smit_mesh::DEFAULT_TOLERANCE
 
-use super::smit_mesh::{DEFAULT_TOLERANCE, TriangleState, for_each_triangle};
+use super::smit_mesh::{DEFAULT_TOLERANCE, TriangleState, group_triangles};
 use super::smit_point::MAX_SPLAT;
 use super::smit_quad::quad_corners;
 use super::smit_warp::{WarpedReference, triangle_any_winding, window_of};
@@ -156,14 +156,32 @@ pub fn labels(refs: &[WarpedReference], d: &DestPlanes) -> Vec<Label> {
             triangle_any_winding(v, win, |x, y, _| extent.set(y as usize * w as usize + x as usize, true));
         };
         for r in refs {
-            for_each_triangle(r, Some(DEFAULT_TOLERANCE), |state, _, v| {
-                if let (TriangleState::Drawn, Some(v)) = (state, v) {
-                    let p = v.map(|s| s.pos);
-                    if let Some(win) = window_of(&p, w, h).filter(|win| holes.any(win)) {
-                        mark(p, win);
+            // Groups first: only those whose vertices' bounding box holds a
+            // hole need the connectivity test.
+            let rw = r.width as usize;
+            for gy in 0..(r.height as usize).saturating_sub(1) {
+                for gx in 0..rw.saturating_sub(1) {
+                    let k = gy * rw + gx;
+                    let (mut present, mut n) = ([DVec2::ZERO; 4], 0);
+                    for i in [k, k + 1, k + rw, k + rw + 1] {
+                        if let Some(s) = &r.samples[i] {
+                            present[n] = s.pos;
+                            n += 1;
+                        }
+                    }
+                    if n < 3 || window_of(&present[..n], w, h).is_none_or(|win| !holes.any(&win)) {
+                        continue;
+                    }
+                    for (state, tri) in group_triangles(r, gx, gy, Some(DEFAULT_TOLERANCE)) {
+                        if state == TriangleState::Drawn {
+                            let p = tri.map(|i| r.samples[i].expect("drawn triangles have warped vertices").pos);
+                            if let Some(win) = window_of(&p, w, h) {
+                                mark(p, win);
+                            }
+                        }
                     }
                 }
-            });
+            }
             for s in r.samples.iter().flatten() {
                 let [a, b, dd, c] = quad_corners(s, MAX_SPLAT).0;
                 if let Some(win) = window_of(&[a, b, dd, c], w, h).filter(|win| holes.any(win)) {

@@ -80,37 +80,46 @@ pub enum TriangleState {
     Broken,
 }
 
-/// Rules 1–3: visit the triangles of `r`'s mesh in order (groups in raster
-/// order, (A, B, D) then (A, D, C)) with their state, their vertices'
-/// reference indices and, when drawn, the vertices.
-pub fn for_each_triangle(
+/// Rules 1–3 for the 2x2 group whose top-left reference sample is
+/// `(gx, gy)` (both `< width − 1`, `< height − 1`): its triangles
+/// (A, B, D) and (A, D, C), each with its state and the reference indices
+/// of its vertices.
+#[inline(always)]
+pub fn group_triangles(
     r: &WarpedReference,
+    gx: usize,
+    gy: usize,
     tolerance: Option<f64>,
-    mut f: impl FnMut(TriangleState, [usize; 3], Option<[&WarpedSample; 3]>),
-) {
+) -> [(TriangleState, [usize; 3]); 2] {
+    let w = r.width as usize;
+    let (ia, ib, ic, id) = (gy * w + gx, gy * w + gx + 1, (gy + 1) * w + gx, (gy + 1) * w + gx + 1);
+    let (sa, sb, sc, sd) = (&r.samples[ia], &r.samples[ib], &r.samples[ic], &r.samples[id]);
+    let joins = |p: &Option<WarpedSample>, q: &Option<WarpedSample>, o: DVec2| match (p, q) {
+        (Some(p), Some(q)) => Some(tolerance.is_none_or(|t| connected(p, q, o, t))),
+        _ => None,
+    };
+    let (right, down) = (DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0));
+    let ad = joins(sa, sd, DVec2::new(1.0, 1.0));
+    let state = |e1: Option<bool>, e2: Option<bool>| match (e1, e2, ad) {
+        (Some(true), Some(true), Some(true)) => TriangleState::Drawn,
+        (Some(_), Some(_), Some(_)) => TriangleState::Broken,
+        _ => TriangleState::Missing,
+    };
+    [
+        (state(joins(sa, sb, right), joins(sb, sd, down)), [ia, ib, id]),
+        (state(joins(sc, sd, right), joins(sa, sc, down)), [ia, id, ic]),
+    ]
+}
+
+/// Rules 1–3: visit the triangles of `r`'s mesh in order (groups in raster
+/// order, (A, B, D) then (A, D, C)) with their state and their vertices'
+/// reference indices.
+pub fn for_each_triangle(r: &WarpedReference, tolerance: Option<f64>, mut f: impl FnMut(TriangleState, [usize; 3])) {
     let (w, h) = (r.width as usize, r.height as usize);
-    let (right, down, diag) = (DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0), DVec2::new(1.0, 1.0));
     for gy in 0..h.saturating_sub(1) {
         for gx in 0..w.saturating_sub(1) {
-            let (ia, ib, ic, id) = (gy * w + gx, gy * w + gx + 1, (gy + 1) * w + gx, (gy + 1) * w + gx + 1);
-            let (sa, sb, sc, sd) = (&r.samples[ia], &r.samples[ib], &r.samples[ic], &r.samples[id]);
-            let joins = |p: &Option<WarpedSample>, q: &Option<WarpedSample>, o: DVec2| match (p, q) {
-                (Some(p), Some(q)) => Some(tolerance.is_none_or(|t| connected(p, q, o, t))),
-                _ => None,
-            };
-            let ad = joins(sa, sd, diag);
-            for (tri, e1, e2) in [
-                ([ia, ib, id], joins(sa, sb, right), joins(sb, sd, down)),
-                ([ia, id, ic], joins(sc, sd, right), joins(sa, sc, down)),
-            ] {
-                let v = tri.map(|k| r.samples[k].as_ref());
-                match (e1, e2, ad) {
-                    (Some(true), Some(true), Some(true)) => {
-                        f(TriangleState::Drawn, tri, Some(v.map(|s| s.expect("joined vertices are warped"))))
-                    }
-                    (Some(_), Some(_), Some(_)) => f(TriangleState::Broken, tri, None),
-                    _ => f(TriangleState::Missing, tri, None),
-                }
+            for (state, tri) in group_triangles(r, gx, gy, tolerance) {
+                f(state, tri);
             }
         }
     }
@@ -162,12 +171,13 @@ impl SmitMesh {
     /// Rules 2–5 for one warped reference into `d`.
     pub fn draw(&self, r: &WarpedReference, colour: &[[f32; 3]], d: &mut DestPlanes, st: &mut MeshStats) {
         let (w, h) = (d.width, d.height);
-        for_each_triangle(r, self.tolerance, |state, tri, v| {
-            let v = match (state, v) {
-                (TriangleState::Drawn, Some(v)) => v,
-                (TriangleState::Broken, _) => return st.broken_triangles += 1,
-                _ => return st.missing_triangles += 1,
-            };
+        for_each_triangle(r, self.tolerance, |state, tri| {
+            match state {
+                TriangleState::Drawn => {}
+                TriangleState::Broken => return st.broken_triangles += 1,
+                TriangleState::Missing => return st.missing_triangles += 1,
+            }
+            let v = tri.map(|k| r.samples[k].as_ref().expect("drawn triangles have warped vertices"));
             let p = v.map(|s| s.pos);
             let Some(win) = window_of(&p, w, h) else { return st.off_image += 1 };
             let (e1, e2) = (p[1] - p[0], p[2] - p[0]);

@@ -39,7 +39,7 @@
 //! points.
 
 use super::smit_errors;
-use super::smit_warp::{WarpedReference, centres, depth_write, warp_frame};
+use super::smit_warp::{WarpedReference, ceil, centres, depth_write, warp_frame};
 use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::planes::DestPlanes;
 use glam::{DMat2, DVec2};
@@ -64,8 +64,8 @@ pub fn splat_side(j: &DMat2, max_size: u32) -> (u32, bool) {
     if !m.is_finite() {
         return (max_size, true);
     }
-    let s = (m - SIZE_EPS).ceil().max(1.0);
-    if s > max_size as f64 { (max_size, true) } else { (s as u32, false) }
+    let m = m - SIZE_EPS;
+    if m > max_size as f64 { (max_size, true) } else { (ceil(m).max(1.0) as u32, false) }
 }
 
 /// Smit's point splats.

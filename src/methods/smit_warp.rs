@@ -34,7 +34,7 @@
 
 use crate::golden::general::{Window, triangle};
 use crate::golden::planes::DestPlanes;
-use crate::golden::transform::WarpContext;
+use crate::golden::transform::{WarpContext, warp_of};
 use glam::{DMat2, DVec2};
 use postwarp_rtl::{ReferenceWarp, SampleImage};
 
@@ -97,15 +97,16 @@ pub fn warp_reference(
         let z = img.z[i] as f64;
         let inv_z = 1.0 / z;
         let (x, y) = ((i % w) as f64, (i / w) as f64);
-        let t = warp.setup.warp(x, y, inv_z);
+        // `WarpSetup::warp`, operation for operation, inlined.
+        let [px, py, iz, pw] = warp_of(&warp.setup, x, y, inv_z);
         let ok =
-            z > 0.0 && inv_z.is_finite() && t.w > 0.0 && t.position.is_finite() && t.inv_z.is_finite() && t.inv_z > 0.0;
+            z > 0.0 && inv_z.is_finite() && pw > 0.0 && px.is_finite() && py.is_finite() && iz.is_finite() && iz > 0.0;
         if !ok {
             culled_samples += 1;
             continue;
         }
         let jac = ctx.jacobian(x, y, inv_z, img.inv_z_slopes[i]);
-        samples[i] = Some(WarpedSample { pos: t.position, inv_z: t.inv_z, jac });
+        samples[i] = Some(WarpedSample { pos: DVec2::new(px, py), inv_z: iz, jac });
     }
     WarpedReference { width: img.width, height: img.height, source, samples, reference_samples, culled_samples }
 }
@@ -147,9 +148,30 @@ pub fn centres(a: f64, b: f64, size: u32) -> Option<(u32, u32)> {
     if !(a.is_finite() && b.is_finite()) {
         return None;
     }
-    let lo = a.ceil().max(0.0);
-    let hi = (b.ceil() - 1.0).min(size as f64 - 1.0);
+    let lo = ceil(a).max(0.0);
+    let hi = (ceil(b) - 1.0).min(size as f64 - 1.0);
     (lo <= hi).then_some((lo as u32, hi as u32))
+}
+
+/// Coordinates beyond this are clamped by [`ceil`] and [`floor`] (samples;
+/// far outside any image).
+const FAR: f64 = 1e9;
+
+/// `f64::ceil` of a finite `v` clamped to ±[`FAR`], without the libm call
+/// that `ceil` is on baseline x86-64.
+#[inline(always)]
+pub fn ceil(v: f64) -> f64 {
+    let v = v.clamp(-FAR, FAR);
+    let t = v as i64 as f64;
+    if t < v { t + 1.0 } else { t }
+}
+
+/// `f64::floor` of a finite `v` clamped to ±[`FAR`] (as [`ceil`]).
+#[inline(always)]
+pub fn floor(v: f64) -> f64 {
+    let v = v.clamp(-FAR, FAR);
+    let t = v as i64 as f64;
+    if t > v { t - 1.0 } else { t }
 }
 
 /// The inclusive window of sample centres inside the bounding box of
@@ -164,10 +186,10 @@ pub fn window_of(points: &[DVec2], width: u32, height: u32) -> Option<Window> {
     if !(lo.is_finite() && hi.is_finite()) {
         return None;
     }
-    let x0 = lo.x.ceil().max(0.0);
-    let x1 = hi.x.floor().min(width as f64 - 1.0);
-    let y0 = lo.y.ceil().max(0.0);
-    let y1 = hi.y.floor().min(height as f64 - 1.0);
+    let x0 = ceil(lo.x).max(0.0);
+    let x1 = floor(hi.x).min(width as f64 - 1.0);
+    let y0 = ceil(lo.y).max(0.0);
+    let y1 = floor(hi.y).min(height as f64 - 1.0);
     (x0 <= x1 && y0 <= y1).then_some(((x0 as i64, x1 as i64), (y0 as i64, y1 as i64)))
 }
 
@@ -191,6 +213,16 @@ pub fn triangle_any_winding(v: [DVec2; 3], win: Window, mut f: impl FnMut(u32, u
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ceil_and_floor_match_std_in_range() {
+        for v in [-3.5, -3.0, -2.9, -0.2, -0.0, 0.0, 0.3, 1.0, 1.000001, 7.99, 1e8 + 0.5, -1e8 - 0.5] {
+            assert_eq!(ceil(v), v.ceil(), "{v}");
+            assert_eq!(floor(v), v.floor(), "{v}");
+        }
+        assert_eq!(ceil(1e300), 1e9);
+        assert_eq!(floor(-1e300), -1e9);
+    }
 
     #[test]
     fn centres_are_half_open_and_clipped() {
