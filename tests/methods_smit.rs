@@ -273,6 +273,11 @@ fn the_mesh_does_not_bridge_a_depth_step_the_warp_opens() {
         assert_eq!(d.colour[(y * 40 + 20) as usize], common::RED);
         assert!(d.real[(y * 40 + 30) as usize]);
     }
+    // A step the warp opens by 1.25 samples (the camera 0.05 to the
+    // right: 1.67 against 0.42) is within the default τ = 2 and bridged.
+    let (d, c) = run(&SmitMesh::default(), at_x(40, 16, 0.05), 1, &refs);
+    assert_eq!(counter(&c, "broken_triangles"), 0.0);
+    assert!((0..15 * 40).all(|k| d.real[k] || k % 40 == 39), "only the right edge, outside the view, is empty");
     // The paper's completely connected mesh bridges it with rubber sheets.
     let (d, c) = run(&SmitMesh::connected(), derived, 1, &refs);
     assert_eq!(counter(&c, "broken_triangles"), 0.0);

@@ -15,8 +15,11 @@
 //!    reconstruction.
 //! 2. The *extent* of the sampled surfaces is the union, over all the
 //!    frame's references, of (a) every triangle of the `smit-mesh` rule-3
-//!    mesh at the default tolerance ([`DEFAULT_TOLERANCE`]): the continuous
-//!    surface between neighbouring samples of one surface, and (b) every
+//!    mesh at the strict tolerance [`SURFACE_TOLERANCE`] = 0.5 (not the
+//!    mesh's default of 2, which bridges small gaps on purpose): the
+//!    continuous surface between neighbouring samples of one surface, a
+//!    triangle whose edge opens by more than half a predicted edge (at
+//!    least half a derived sample) spanning a discontinuity; and (b) every
 //!    warped sample's footprint quad `J·[±½, ±½]` capped as `smit-quad`
 //!    rule 3 (at `smit_point::MAX_SPLAT`): the surface around a sample at
 //!    a surface's edge. Both rasterized under the top-left rule, either
@@ -54,10 +57,8 @@
 //! compare with. The paper's hole resolution (ray casting 4x4 blocks into
 //! the kd-tree and re-rendering the first three leaf nodes hit, redrawing
 //! the background quad) needs the scene too.
-//!
-//! [`DEFAULT_TOLERANCE`]: super::smit_mesh::DEFAULT_TOLERANCE
 
-use super::smit_mesh::{DEFAULT_TOLERANCE, TriangleState, group_triangles};
+use super::smit_mesh::{TriangleState, group_triangles};
 use super::smit_point::MAX_SPLAT;
 use super::smit_quad::quad_corners;
 use super::smit_warp::{WarpedReference, triangle_any_winding, window_of};
@@ -66,6 +67,10 @@ use crate::golden::planes::DestPlanes;
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use serde_json::{Map, json};
+
+/// Rule 2's tolerance of "one surface" (`smit_mesh::connected`, in
+/// predicted edge lengths, at least this many derived samples).
+pub const SURFACE_TOLERANCE: f64 = 0.5;
 
 /// What a derived sample is after the reconstruction.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -172,7 +177,7 @@ pub fn labels(refs: &[WarpedReference], d: &DestPlanes) -> Vec<Label> {
                     if n < 3 || window_of(&present[..n], w, h).is_none_or(|win| !holes.any(&win)) {
                         continue;
                     }
-                    for (state, tri) in group_triangles(r, gx, gy, Some(DEFAULT_TOLERANCE)) {
+                    for (state, tri) in group_triangles(r, gx, gy, Some(SURFACE_TOLERANCE)) {
                         if state == TriangleState::Drawn {
                             let p = tri.map(|i| r.samples[i].expect("drawn triangles have warped vertices").pos);
                             if let Some(win) = window_of(&p, w, h) {
