@@ -31,6 +31,11 @@ pub mod rubber_sheet;
 pub mod schollmeyer_grid;
 pub mod schollmeyer_quadtree;
 pub mod stretch;
+pub mod smit_errors;
+pub mod smit_mesh;
+pub mod smit_point;
+pub mod smit_quad;
+pub mod smit_warp;
 
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
@@ -160,6 +165,10 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Cross)),
         Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Partial)),
         Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Irregular)),
+        Box::new(smit_point::SmitPoint::default()),
+        Box::new(smit_quad::SmitQuad::default()),
+        Box::new(smit_mesh::SmitMesh::default()),
+        Box::new(smit_mesh::SmitMesh::connected()),
     ]
 }
 
