@@ -18,14 +18,14 @@ pub fn listing() -> String {
     for m in reconstructions() {
         let i = m.info();
         s += &format!(
-            "  {:<20} {}\n  {:<20} paper: {}; primitives: {}; default hole fill: {}\n",
+            "  {:<22} {}\n  {:<22} paper: {}; primitives: {}; default hole fill: {}\n",
             i.name, i.description, "", i.paper, i.primitive, i.default_hole_fill
         );
     }
     s += "hole fills (--hole-fill NAME):\n";
     for f in hole_fills() {
         let i = f.info();
-        s += &format!("  {:<20} {}\n  {:<20} paper: {}\n", i.name, i.description, "", i.paper);
+        s += &format!("  {:<22} {}\n  {:<22} paper: {}\n", i.name, i.description, "", i.paper);
     }
     s
 }
