@@ -30,12 +30,12 @@ pub mod pull_push;
 pub mod rubber_sheet;
 pub mod schollmeyer_grid;
 pub mod schollmeyer_quadtree;
-pub mod stretch;
 pub mod smit_errors;
 pub mod smit_mesh;
 pub mod smit_point;
 pub mod smit_quad;
 pub mod smit_warp;
+pub mod stretch;
 
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
