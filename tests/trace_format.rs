@@ -179,7 +179,7 @@ fn unreadable_image_names_the_file_and_manifest_line() {
 
 #[test]
 fn bad_depth_where_a_surface_is_claimed_is_an_error() {
-    for (bad, what) in [(f32::NAN, "NaN"), (f32::INFINITY, "inf"), (0.0, "0"), (-1.0, "-1")] {
+    for (bad, what) in [(f32::NAN, "NaN"), (f32::INFINITY, "inf"), (0.0, "0"), (-1.0, "-1"), (1e-40, "1e-40")] {
         let dir = small_trace_dir();
         let mut s = samples(12, 8, 0.0);
         let i = s.index(3, 2);
@@ -306,4 +306,67 @@ fn the_documented_example_parses() {
     let t = parse_manifest(&doc[start..end], Path::new("docs/trace-format.md")).unwrap();
     assert_eq!(t.display.width, 128);
     assert_eq!(t.derived[0].references, vec![0, 1]);
+}
+
+/// The bytes of a 12x8 EXR with exactly the given channels.
+fn exr_bytes(channels: Vec<(&str, exr::prelude::FlatSamples)>) -> Vec<u8> {
+    use exr::prelude::*;
+    let list: Vec<AnyChannel<FlatSamples>> = channels.into_iter().map(|(n, s)| AnyChannel::new(n, s)).collect();
+    let layer = Layer::new(
+        (12, 8),
+        LayerAttributes::named("t"),
+        Encoding::UNCOMPRESSED,
+        AnyChannels::sort(list.into_iter().collect()),
+    );
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer).write().to_buffered(&mut out).unwrap();
+    out.into_inner()
+}
+
+fn decode(bytes: &[u8], expected: (u32, u32)) -> Result<postwarp::trace::LoadedReference, String> {
+    postwarp::trace::decode_reference_image(bytes, Path::new("d/img.exr"), expected).map_err(|e| e.to_string())
+}
+
+#[test]
+fn absurd_header_size_is_refused_before_decoding() {
+    let mut b = exr_bytes(rgbz());
+    assert!(decode(&b, (12, 8)).is_ok());
+    // dataWindow = box2i (xMin, yMin, xMax, yMax): claim 10^9 x 10^9 pixels.
+    let at = b.windows(17).position(|w| w == b"dataWindow\0box2i\0").expect("dataWindow attribute") + 17 + 4;
+    for (k, v) in [(8, 999_999_999i32), (12, 999_999_999)] {
+        b[at + k..at + k + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    for expected in [(12, 8), (16384, 16384)] {
+        let msg = decode(&b, expected).unwrap_err();
+        assert!(msg.starts_with("d/img.exr: image is 1000000000x1000000000; expected"), "{msg}");
+    }
+}
+
+#[test]
+fn multi_part_or_subsampled_images_are_refused() {
+    use exr::prelude::*;
+    let layer = |name: &str| {
+        let list: Vec<AnyChannel<FlatSamples>> = rgbz().into_iter().map(|(n, s)| AnyChannel::new(n, s)).collect();
+        Layer::new((12, 8), LayerAttributes::named(name), Encoding::UNCOMPRESSED, AnyChannels::sort(list.into()))
+    };
+    let mut out = std::io::Cursor::new(Vec::new());
+    Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions((12, 8))), vec![layer("a"), layer("b")])
+        .write()
+        .to_buffered(&mut out)
+        .unwrap();
+    let msg = decode(out.get_ref(), (12, 8)).unwrap_err();
+    assert!(msg.contains("has 2 parts; expected a single-part"), "{msg}");
+
+    // exr writes no subsampled channels: patch the channel list instead
+    // (name, NUL, pixel type i32, pLinear u8, 3 reserved, xSampling i32, ySampling i32).
+    let mut channels = rgbz();
+    channels.push(("dinvz_dx", f32s(0.0)));
+    channels.push(("dinvz_dy", f32s(0.0)));
+    let mut b = exr_bytes(channels);
+    let at = b.windows(9).position(|w| w == b"dinvz_dx\0").expect("channel list entry") + 9 + 8;
+    for k in [0, 4] {
+        b[at + k..at + k + 4].copy_from_slice(&2i32.to_le_bytes());
+    }
+    let msg = decode(&b, (12, 8)).unwrap_err();
+    assert!(msg.contains("channel `dinvz_dx` is subsampled (2x2)"), "{msg}");
 }

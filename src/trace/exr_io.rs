@@ -10,24 +10,47 @@
 //! - ground truth, one record per display pixel: `R`, `G`, `B`; optional
 //!   `valid` (1 = known, 0 = unknown: metrics skip the pixel).
 //!
-//! Rules: where a surface is claimed, `Z` must be finite and positive and the
+//! Rules: where a surface is claimed, `Z` must be finite and positive, with
+//! a finite `f32` reciprocal (so `Z >= 1/f32::MAX`, about 2.9e-39), and the
 //! slopes finite; colours must be finite everywhere. Violations are errors
-//! naming the file, the sample and the channel. Files are written ZIP
-//! compressed (lossless) to a temporary name and renamed.
+//! naming the file, the sample and the channel. Where no surface is claimed
+//! (`valid` = 0) `Z` and the slopes are ignored, whatever they hold (NaN
+//! included), and read as 0. The header is checked before any pixel is
+//! decoded: one part, flat (not deep) data, the size the manifest gives,
+//! every channel at full resolution; so a header claiming an absurd size is
+//! an error, never a huge allocation. Files are written ZIP compressed
+//! (lossless) to a temporary name and renamed.
 
 use super::{LoadedReference, SlopeSource, TraceError, TruthImage};
 use crate::io_util::write_atomically;
 use bitvec::vec::BitVec;
+use exr::math::Vec2;
+use exr::meta::MetaData;
 use exr::prelude::{
     AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels, ReadLayers,
     WritableImage, f16, read,
 };
 use postwarp_rtl::SampleImage;
+use std::io::Cursor;
 use std::path::Path;
+
+/// The bytes of an image file; a missing file is named as such.
+fn read_image_file(path: &Path) -> Result<Vec<u8>, TraceError> {
+    if !path.is_file() {
+        return Err(TraceError::file(path, "image file does not exist"));
+    }
+    std::fs::read(path).map_err(|e| TraceError::io(path, &e))
+}
 
 /// Read a reference image of `expected` `(width, height)` samples.
 pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
-    let ch = Channels::read(path, expected)?;
+    decode_reference_image(&read_image_file(path)?, path, expected)
+}
+
+/// Decode the bytes of a reference image file of `expected` `(width,
+/// height)` samples; `file` only names the source in errors.
+pub fn decode_reference_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
+    let ch = Channels::decode(bytes, file, expected)?;
     let (w, h) = expected;
     let n = w as usize * h as usize;
     let mut img = SampleImage::empty(w, h);
@@ -50,13 +73,19 @@ pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedR
     for i in 0..n {
         let (x, y) = (i % w as usize, i / w as usize);
         if !img.valid[i] {
+            // No surface: depth and slopes mean nothing; never pass on NaN.
+            img.z[i] = 0.0;
+            img.inv_z_slopes[i] = [0.0; 2];
             continue;
         }
         let z = img.z[i];
-        if !(z.is_finite() && z > 0.0) {
+        // 1/Z must be a finite f32 too (Z >= 2.9e-39), or slopes from
+        // finite differences, and the engines' 1/Z, would be infinite.
+        if !(z.is_finite() && z > 0.0 && (1.0 / z).is_finite()) {
             return Err(ch.err(format!(
-                "sample ({x}, {y}): depth Z = {z} where a surface is claimed; expected a finite positive depth \
-                 (mark samples without a surface with valid = 0)"
+                "sample ({x}, {y}): depth Z = {z:e} where a surface is claimed; expected a finite positive depth \
+                 whose reciprocal is finite (Z >= {:e}; mark samples without a surface with valid = 0)",
+                1.0 / f32::MAX
             )));
         }
         if slopes == SlopeSource::Exact && !img.inv_z_slopes[i].iter().all(|s| s.is_finite()) {
@@ -71,7 +100,13 @@ pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedR
 
 /// Read a ground-truth image of `expected` `(width, height)` pixels.
 pub fn read_truth_image(path: &Path, expected: (u32, u32)) -> Result<TruthImage, TraceError> {
-    let ch = Channels::read(path, expected)?;
+    decode_truth_image(&read_image_file(path)?, path, expected)
+}
+
+/// Decode the bytes of a ground-truth image file of `expected` `(width,
+/// height)` pixels; `file` only names the source in errors.
+pub fn decode_truth_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<TruthImage, TraceError> {
+    let ch = Channels::decode(bytes, file, expected)?;
     Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()? })
 }
 
@@ -139,28 +174,78 @@ struct Channels {
 }
 
 impl Channels {
-    fn read(path: &Path, expected: (u32, u32)) -> Result<Channels, TraceError> {
-        if !path.is_file() {
-            return Err(TraceError::file(path, "image file does not exist"));
-        }
-        let image = read()
-            .no_deep_data()
-            .largest_resolution_level()
-            .all_channels()
-            .first_valid_layer()
-            .all_attributes()
-            .non_parallel()
-            .from_file(path)
-            .map_err(|e| TraceError::file(path, format!("not a readable OpenEXR image: {e}")))?;
-        let layer = image.layer_data;
-        let size = (layer.size.0 as u64, layer.size.1 as u64);
-        if size != (expected.0 as u64, expected.1 as u64) {
+    /// Check the header against `expected`, then decode the pixels.
+    fn decode(bytes: &[u8], path: &Path, expected: (u32, u32)) -> Result<Channels, TraceError> {
+        let unreadable = |e: exr::error::Error| TraceError::file(path, format!("not a readable OpenEXR image: {e}"));
+        // The header first: nothing is allocated for the pixels until the
+        // size and the channels are known to be what the manifest says.
+        let meta = MetaData::read_from_buffered(Cursor::new(bytes), false).map_err(unreadable)?;
+        let [header] = meta.headers.as_slice() else {
             return Err(TraceError::file(
                 path,
-                format!("image is {}x{}; expected {}x{} as the manifest says", size.0, size.1, expected.0, expected.1),
+                format!("has {} parts; expected a single-part OpenEXR image", meta.headers.len()),
+            ));
+        };
+        if header.deep {
+            return Err(TraceError::file(path, "holds deep data; expected a flat (scan-line or tiled) image"));
+        }
+        let size = (header.layer_size.0 as u64, header.layer_size.1 as u64);
+        let want = (expected.0 as u64, expected.1 as u64);
+        if size != want {
+            return Err(TraceError::file(
+                path,
+                format!("image is {}x{}; expected {}x{} as the manifest says", size.0, size.1, want.0, want.1),
             ));
         }
-        let list = layer.channel_data.list.into_iter().map(|c| (c.name.to_string(), c.sample_data)).collect();
+        if let Some(c) = header.channels.list.iter().find(|c| c.sampling != Vec2(1, 1)) {
+            return Err(TraceError::file(
+                path,
+                format!(
+                    "channel `{}` is subsampled ({}x{}); expected every channel at full resolution",
+                    c.name, c.sampling.0, c.sampling.1
+                ),
+            ));
+        }
+        let decode = || {
+            read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .all_channels()
+                .first_valid_layer()
+                .all_attributes()
+                .non_parallel()
+                .from_buffered(Cursor::new(bytes))
+        };
+        // A panic in the third-party decoder on a malformed file is that
+        // file's error, not a crash of the tool.
+        let image = std::panic::catch_unwind(decode)
+            .map_err(|p| {
+                let why =
+                    p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned());
+                TraceError::file(
+                    path,
+                    format!(
+                        "not a readable OpenEXR image: the decoder failed ({}); expected a well-formed file",
+                        why.unwrap_or_else(|| "panic".into())
+                    ),
+                )
+            })?
+            .map_err(unreadable)?;
+        let layer = image.layer_data;
+        let n = want.0 * want.1;
+        if (layer.size.0 as u64, layer.size.1 as u64) != want {
+            return Err(TraceError::file(path, format!("decoded layer is {}x{}", layer.size.0, layer.size.1)));
+        }
+        let mut list = Vec::with_capacity(layer.channel_data.list.len());
+        for c in layer.channel_data.list {
+            if c.sample_data.len() as u64 != n {
+                return Err(TraceError::file(
+                    path,
+                    format!("channel `{}` has {} samples; expected {n}", c.name, c.sample_data.len()),
+                ));
+            }
+            list.push((c.name.to_string(), c.sample_data));
+        }
         Ok(Channels { path: path.to_path_buf(), list })
     }
 

@@ -13,7 +13,10 @@ mod parse;
 mod write;
 
 pub use error::TraceError;
-pub use exr_io::{read_reference_image, read_truth_image, write_reference_image, write_truth_image};
+pub use exr_io::{
+    decode_reference_image, decode_truth_image, read_reference_image, read_truth_image, write_reference_image,
+    write_truth_image,
+};
 pub use parse::parse_manifest;
 pub use write::{TraceWriter, format_manifest};
 

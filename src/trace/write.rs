@@ -71,9 +71,11 @@ impl TraceWriter {
         })
     }
 
-    /// Add a `note` line (provenance, units). Line breaks become spaces.
+    /// Add a `note` line (provenance, units). Line breaks become spaces and
+    /// surrounding white space is dropped, as the parser drops it, so the
+    /// note reads back exactly as kept.
     pub fn note(&mut self, text: impl Into<String>) {
-        self.trace.notes.push(text.into().replace(['\n', '\r'], " "));
+        self.trace.notes.push(text.into().replace(['\n', '\r'], " ").trim().to_string());
     }
 
     /// Add a reference frame and write its image as `ref/NNNN.exr`.
