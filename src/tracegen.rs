@@ -96,6 +96,7 @@ impl TraceSpec {
         if !(1..=MAX_SUPERSAMPLE).contains(&self.supersample) {
             bail!("--supersample {}: expected 1 to {MAX_SUPERSAMPLE}", self.supersample);
         }
+        check_samples("display frames", self.width, self.height, self.supersample)?;
         if self.frames == 0 {
             bail!("--frames 0: expected at least one derived frame");
         }
@@ -117,6 +118,17 @@ impl TraceSpec {
         if !(self.start_s.is_finite() && self.start_s >= 0.0) {
             bail!("--start {}: expected seconds >= 0", self.start_s);
         }
+        // As `make_trace` counts them, in f64 so that no ratio overflows.
+        let refs = ((self.frames - 1) as f64 * self.ref_rate_hz / self.derived_rate_hz + 1e-9).floor() + 2.0;
+        if refs.is_nan() || refs > MAX_REFERENCE_FRAMES as f64 {
+            bail!(
+                "--frames {} at --derived-rate {} Hz needs {refs} reference frames at --ref-rate {} Hz; \
+                 at most {MAX_REFERENCE_FRAMES}",
+                self.frames,
+                self.derived_rate_hz,
+                self.ref_rate_hz
+            );
+        }
         Ok(())
     }
 
@@ -134,6 +146,7 @@ impl TraceSpec {
         if w > crate::trace::MAX_SIDE || h > crate::trace::MAX_SIDE {
             bail!("reference frames would be {w}x{h} pixels: lower --ref-fov or the display size");
         }
+        check_samples("reference frames", w, h, self.supersample)?;
         Ok(Intrinsics { width: w, height: h, fx: f, fy: f, cx: 0.5 * (w as f64 - 1.0), cy: 0.5 * (h as f64 - 1.0) })
     }
 
@@ -143,6 +156,22 @@ impl TraceSpec {
         let r = k as f64 * self.ref_rate_hz / self.derived_rate_hz;
         (r + 1e-9).floor() as usize
     }
+}
+
+/// Most reference frames one trace may need (`--frames` and the rates).
+pub const MAX_REFERENCE_FRAMES: usize = 100_000;
+
+/// `w x h` pixels at `ss x ss` samples must fit one image of a trace.
+fn check_samples(what: &str, w: u32, h: u32, ss: u32) -> anyhow::Result<()> {
+    let n = w as u64 * h as u64 * (ss as u64).pow(2);
+    if n > crate::trace::MAX_SAMPLES {
+        bail!(
+            "{what} of {w}x{h} pixels at {ss}x{ss} samples would hold {n} samples; at most {} \
+             (lower the size or --supersample)",
+            crate::trace::MAX_SAMPLES
+        );
+    }
+    Ok(())
 }
 
 /// Build the camera path `kind` of `scene`.

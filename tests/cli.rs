@@ -97,6 +97,45 @@ fn bad_input_is_a_clear_error() {
 }
 
 #[test]
+fn absurd_make_trace_sizes_and_rates_are_refused_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let base = ["make-trace", "--scene", "room", "--out", out];
+    for (extra, want) in [
+        // 2^32 samples per display frame (was rendered, then refused by the parser, or ran out of memory).
+        (
+            &["--width", "16384", "--height", "16384", "--supersample", "4", "--ref-fov", "5x5"][..],
+            "display frames of 16384x16384 pixels at 4x4 samples would hold 4294967296 samples",
+        ),
+        // References of about 15286x7094 px at 4x4 samples (the display itself fits).
+        (
+            &[
+                "--width",
+                "4096",
+                "--height",
+                "2048",
+                "--supersample",
+                "4",
+                "--display-hfov",
+                "90",
+                "--ref-fov",
+                "150x120",
+            ],
+            "reference frames of 1528",
+        ),
+        // Ratio of rates overflowing the reference count (was a panic: attempt to add with overflow).
+        (&["--ref-rate", "1e300", "--derived-rate", "1e-300", "--frames", "2"], "reference frames at --ref-rate"),
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let o = postwarp(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.starts_with("error: ") && err.contains(want), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert!(!dir.path().join("postwarp.trace").exists(), "nothing is written");
+}
+
+#[test]
 fn bundled_traces_are_readable() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("traces");
     let mut n = 0;

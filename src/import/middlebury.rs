@@ -424,8 +424,14 @@ fn read_png_linear(
     use image::ColorType;
     let bytes =
         std::fs::read(path).map_err(|e| ImportError::input(path, None, format!("cannot read PNG file: {e}")))?;
-    let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
-        .map_err(|e| ImportError::input(path, None, format!("cannot decode as PNG: {e}")))?;
+    let decode_err = |e: image::ImageError| ImportError::input(path, None, format!("cannot decode as PNG: {e}"));
+    // The size from the header first: nothing is decoded at a wrong size.
+    let reader = || image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
+    let size = reader().into_dimensions().map_err(decode_err)?;
+    if size != expected {
+        return Err(ImportError::input(path, None, size_note("the image", size)));
+    }
+    let img = reader().decode().map_err(decode_err)?;
     match img.color() {
         ColorType::L8 | ColorType::La8 | ColorType::Rgb8 | ColorType::Rgba8 => {}
         other => {
@@ -614,6 +620,30 @@ mod tests {
         std::fs::write(dir.path().join(LEFT_IMAGE), b"not a png").unwrap();
         let msg = read_middlebury(dir.path()).unwrap_err().to_string();
         assert!(msg.contains("im0.png: cannot decode as PNG"), "{msg}");
+    }
+
+    #[test]
+    fn png_of_the_wrong_size_is_rejected_from_its_header() {
+        let dir = tempfile::tempdir().unwrap();
+        synthetic_folder(dir.path(), &[1.0; 12]);
+        // A PNG header claiming 16384x16384 RGB pixels and no pixel data:
+        // read to its size, never decoded.
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        let mut chunk = |kind: &[u8], data: &[u8]| {
+            let body: Vec<u8> = kind.iter().chain(data).copied().collect();
+            let mut crc = flate2::Crc::new();
+            crc.update(&body);
+            png.extend((data.len() as u32).to_be_bytes());
+            png.extend(&body);
+            png.extend(crc.sum().to_be_bytes());
+        };
+        let ihdr: Vec<u8> = [16384u32.to_be_bytes(), 16384u32.to_be_bytes()].concat();
+        chunk(b"IHDR", &[&ihdr[..], &[8, 2, 0, 0, 0]].concat());
+        chunk(b"IDAT", &[]);
+        chunk(b"IEND", &[]);
+        std::fs::write(dir.path().join(LEFT_IMAGE), png).unwrap();
+        let msg = read_middlebury(dir.path()).unwrap_err().to_string();
+        assert!(msg.contains("im0.png: the image is 16384x16384 but"), "{msg}");
     }
 
     #[test]

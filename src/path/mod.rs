@@ -18,7 +18,7 @@ use postwarp_rtl::Pose;
 /// A camera pose as a function of time.
 pub trait CameraPath {
     /// Pose at time `t` (seconds). Times outside `[0, duration]` clamp to the
-    /// ends.
+    /// ends; NaN is the start.
     fn pose(&self, t: f64) -> Pose;
     /// Length of the path (seconds).
     fn duration(&self) -> f64;

@@ -55,7 +55,8 @@ fn catmull_rom(pts: &[DVec3], u: f64) -> DVec3 {
 
 impl CameraPath for SplinePath {
     fn pose(&self, t: f64) -> Pose {
-        let u = t / self.duration_s;
+        // NaN is the start, as for every path.
+        let u = if t.is_nan() { 0.0 } else { t / self.duration_s };
         let p = catmull_rom(&self.positions, u);
         let target = catmull_rom(&self.targets, u);
         Pose::look_at(p, target, DVec3::Y)
@@ -82,6 +83,8 @@ mod tests {
         assert!((s.pose(1.0).position - w[1].0).length() < 1e-12);
         assert!((s.pose(2.0).position - w[2].0).length() < 1e-9);
         assert_eq!(s.pose(-1.0), s.pose(0.0));
+        assert_eq!(s.pose(f64::NAN), s.pose(0.0));
+        assert_eq!(s.pose(f64::INFINITY), s.pose(2.0));
         assert!(SplinePath::new(&w[..1], 1.0).is_err());
         assert!(SplinePath::new(&w, 0.0).is_err());
     }

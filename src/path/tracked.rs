@@ -73,7 +73,18 @@ impl TrackedPath {
         if !(scale.is_finite() && scale > 0.0) {
             return Err(format!("trajectory scale {scale}; expected a positive number"));
         }
-        let t0 = records[0].0 + skip_s.max(0.0);
+        let Some(&(first_t, _)) = records.first() else {
+            return Err("the trajectory has no poses; expected at least 2".into());
+        };
+        if let Some(i) = records.iter().position(|(t, p)| {
+            !(t.is_finite() && p.position.is_finite() && p.orientation.is_finite() && p.orientation.is_normalized())
+        }) {
+            return Err(format!("trajectory pose {i}: expected a finite time, position and a unit quaternion"));
+        }
+        if let Some(i) = records.windows(2).position(|w| w[1].0 <= w[0].0) {
+            return Err(format!("trajectory pose {}: timestamps must increase", i + 1));
+        }
+        let t0 = first_t + skip_s.max(0.0);
         let kept: Vec<&(f64, Pose)> = records.iter().filter(|r| r.0 >= t0).collect();
         if kept.len() < 2 {
             return Err(format!("the trajectory is shorter than the {skip_s} s skipped"));
@@ -98,7 +109,8 @@ impl TrackedPath {
 impl CameraPath for TrackedPath {
     fn pose(&self, t: f64) -> Pose {
         let n = self.times.len();
-        if t <= 0.0 {
+        // NaN is the start too (it would index before it).
+        if t.is_nan() || t <= 0.0 {
             return self.poses[0];
         }
         if t >= self.times[n - 1] {
@@ -143,6 +155,22 @@ mod tests {
         let (pa, pb) = (a.pose(3.0), b.pose(3.0));
         assert!((pb.position - 2.0 * pa.position).length() < 1e-9);
         assert!(pa.orientation.dot(pb.orientation).abs() > 1.0 - 1e-12);
+    }
+
+    #[test]
+    fn nan_time_is_the_start_and_no_records_an_error() {
+        let recs =
+            [(0.0, Pose::look_at(DVec3::ZERO, DVec3::Z, DVec3::Y)), (1.0, Pose::look_at(DVec3::X, DVec3::Z, DVec3::Y))];
+        let start = Pose::look_at(DVec3::new(0.0, 1.0, 0.0), DVec3::new(0.0, 1.0, 5.0), DVec3::Y);
+        let p = TrackedPath::from_records(&recs, start, 1.0, 0.0).unwrap();
+        assert_eq!(p.pose(f64::NAN), p.pose(0.0));
+        assert_eq!(p.pose(f64::INFINITY), p.pose(1.0));
+        assert!(TrackedPath::from_records(&[], start, 1.0, 0.0).unwrap_err().contains("no poses"));
+        assert!(TrackedPath::from_records(&recs, start, 1.0, f64::NAN).is_ok(), "NaN skip is no skip");
+        let backwards = [recs[1], recs[0]];
+        assert!(TrackedPath::from_records(&backwards, start, 1.0, 0.0).unwrap_err().contains("must increase"));
+        let nan = [recs[0], (f64::NAN, recs[1].1)];
+        assert!(TrackedPath::from_records(&nan, start, 1.0, 0.0).unwrap_err().contains("pose 1"));
     }
 
     #[test]
