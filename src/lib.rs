@@ -7,6 +7,7 @@
 //! report. See `ARCHITECTURE.md`.
 
 pub mod cli;
+pub mod fuzz_entry;
 pub mod golden;
 pub mod import;
 pub mod io_util;

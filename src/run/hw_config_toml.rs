@@ -55,10 +55,17 @@ pub fn load(config: Option<&Path>, preset: Option<&str>) -> anyhow::Result<Engin
         (None, p) => EngineConfig::preset(p.unwrap_or("mark1998")).map_err(|e| anyhow!(e))?,
         (Some(path), None) => {
             let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            parse(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?
+            return from_text(&text, path);
         }
     };
     cfg.validate().map_err(|e| anyhow!("hardware configuration: {e}"))?;
+    Ok(cfg)
+}
+
+/// The configuration in file `path`'s `text`, validated; errors name the file.
+pub fn from_text(text: &str, path: &Path) -> anyhow::Result<EngineConfig> {
+    let cfg = parse(text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    cfg.validate().map_err(|e| anyhow!("{}: hardware configuration: {e}", path.display()))?;
     Ok(cfg)
 }
 

@@ -207,6 +207,8 @@ struct Ctx<'a> {
     text: &'a str,
     origin: &'a str,
     base_dir: Option<&'a Path>,
+    /// False: only `bundled:` models and textures (no file is read).
+    files_allowed: bool,
     mesh_cache: HashMap<PathBuf, Arc<MeshData>>,
     image_cache: HashMap<PathBuf, Arc<Image>>,
 }
@@ -226,6 +228,9 @@ impl Ctx<'_> {
         }
         if file.is_empty() {
             return Err("empty file name".into());
+        }
+        if !self.files_allowed {
+            return Err(format!("`{file}`: only `bundled:` models and textures may be named here"));
         }
         let p = Path::new(file);
         Ok(Source::File(match self.base_dir {
@@ -310,8 +315,19 @@ fn check_waypoint(w: &Waypoint, key: &str) -> Result<(), String> {
 
 /// Parse and check a scene description.
 pub fn compile(text: &str, base_dir: Option<&Path>, origin: &str) -> Result<Compiled, SceneError> {
+    compile_in(text, base_dir, true, origin)
+}
+
+/// [`compile`], but reading no file: a model or texture other than
+/// `bundled:` is an error. For untrusted text (the fuzz targets).
+pub fn compile_bundled_only(text: &str, origin: &str) -> Result<Compiled, SceneError> {
+    compile_in(text, None, false, origin)
+}
+
+fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: &str) -> Result<Compiled, SceneError> {
     let file: SceneFile = toml::from_str(text).map_err(|e| SceneError::new(origin, e.to_string().trim_end()))?;
-    let mut ctx = Ctx { text, origin, base_dir, mesh_cache: HashMap::new(), image_cache: HashMap::new() };
+    let mut ctx =
+        Ctx { text, origin, base_dir, files_allowed, mesh_cache: HashMap::new(), image_cache: HashMap::new() };
 
     let background = match file.background {
         None => [0.0; 3],

@@ -42,8 +42,14 @@ impl MeshData {
     /// Parse OBJ text. `Err` holds a message without the file name.
     pub fn from_obj_bytes(bytes: &[u8]) -> Result<MeshData, String> {
         let opts = tobj::LoadOptions { single_index: true, triangulate: true, ignore_points: true, ignore_lines: true };
-        let mut reader = std::io::BufReader::new(bytes);
-        let (models, _materials) = tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+        let load = || {
+            let mut reader = std::io::BufReader::new(bytes);
+            tobj::load_obj_buf(&mut reader, &opts, |_| Err(tobj::LoadError::OpenFileFailed))
+        };
+        // A panic in the third-party parser on a malformed file is that
+        // file's error, not a crash of the tool.
+        let (models, _materials) = std::panic::catch_unwind(load)
+            .map_err(|_| "not a readable Wavefront OBJ file (the OBJ parser failed on it)".to_string())?
             .map_err(|e| format!("not a readable Wavefront OBJ file ({e})"))?;
         let mut positions = Vec::new();
         let mut uv_per_vertex: Vec<[f64; 2]> = Vec::new();

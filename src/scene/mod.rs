@@ -21,9 +21,9 @@
 
 mod builtin;
 mod bvh;
-mod description;
-mod geometry;
-mod mesh;
+pub(crate) mod description;
+pub(crate) mod geometry;
+pub(crate) mod mesh;
 mod render;
 mod texture;
 mod world;

@@ -1,0 +1,7 @@
+//! Fuzz target `obj`: the body is `postwarp::fuzz_entry::run("obj", data)`,
+//! which `tests/fuzz_corpus.rs` also replays on stable.
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    let _ = postwarp::fuzz_entry::run("obj", data);
+});
