@@ -19,6 +19,7 @@ pub mod progress;
 pub mod report;
 pub mod run;
 pub mod scene;
+pub mod sweep;
 pub mod trace;
 pub mod tracegen;
 
