@@ -15,10 +15,13 @@
 //! 2. A series is a method with its hole fill (`hardware` alone); its
 //!    colour and shape follow its first appearance in the CSV, so a method
 //!    looks the same in every chart of a sweep.
-//! 3. File names: `<trace>.<quality>-vs-<cost>.svg` / `.png`, the trace
+//! 3. Within a series, each point is labelled with the knob columns
+//!    (between `runs` and `point` in the CSV) whose values differ between
+//!    the series' points in that chart, e.g. `dest_cache_bytes=65536`.
+//! 4. File names: `<trace>.<quality>-vs-<cost>.svg` / `.png`, the trace
 //!    label with characters other than letters, digits, `-`, `_`, `.`, `=`
 //!    replaced by `_`.
-//! 4. Same CSV, same bytes. Charts are written atomically; chart files of
+//! 5. Same CSV, same bytes. Charts are written atomically; chart files of
 //!    an earlier run that this CSV no longer gives are removed.
 
 pub mod font;
@@ -45,7 +48,7 @@ pub const COSTS: &[(&str, &str, &str)] = &[
     ("dram_gbps_at_target_rate", "DRAM bandwidth at the target frame rate (GB/s)", "DRAM bandwidth"),
 ];
 
-/// File-name form of a trace label (module rule 3).
+/// File-name form of a trace label (module rule 4).
 pub fn file_label(label: &str) -> String {
     label.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.=".contains(c) { c } else { '_' }).collect()
 }
@@ -58,6 +61,11 @@ pub fn charts_from_csv(csv: &str) -> Result<Vec<(String, Scatter)>, String> {
     let col =
         |name: &str| header.iter().position(|h| h == name).ok_or_else(|| format!("results CSV has no `{name}` column"));
     let (c_spec, c_trace, c_method, c_fill) = (col("spec")?, col("trace")?, col("method")?, col("hole_fill")?);
+    // Knob columns: between `runs` and `point` (docs/sweep.md).
+    let knob_cols: Vec<usize> = match (col("runs"), col("point")) {
+        (Ok(a), Ok(b)) if a < b => (a + 1..b).collect(),
+        _ => Vec::new(),
+    };
     let cell = |r: &Vec<String>, c: usize| r.get(c).cloned().unwrap_or_default();
     let num = |r: &Vec<String>, c: usize| r.get(c).and_then(|v| v.parse::<f64>().ok()).filter(|v| v.is_finite());
     let series_name = |r: &Vec<String>| {
@@ -85,20 +93,41 @@ pub fn charts_from_csv(csv: &str) -> Result<Vec<(String, Scatter)>, String> {
             for (quality, q_label, q_short, better) in QUALITIES {
                 let Ok(qc) = col(quality) else { continue };
                 let mut series: Vec<Series> = Vec::new();
+                let mut knobs: Vec<Vec<Vec<String>>> = Vec::new();
                 for r in &mine {
                     let (Some(x), Some(y)) = (num(r, cc), num(r, qc)) else { continue };
                     let name = series_name(r);
-                    match series.iter_mut().find(|s| s.name == name) {
-                        Some(s) => s.points.push((x, y)),
-                        None => series.push(Series {
-                            style: all_series.iter().position(|s| *s == name).unwrap_or(0),
-                            name,
-                            points: vec![(x, y)],
-                        }),
+                    let values: Vec<String> = knob_cols.iter().map(|&c| cell(r, c)).collect();
+                    match series.iter().position(|s| s.name == name) {
+                        Some(i) => {
+                            series[i].points.push((x, y));
+                            knobs[i].push(values);
+                        }
+                        None => {
+                            series.push(Series {
+                                style: all_series.iter().position(|s| *s == name).unwrap_or(0),
+                                name,
+                                points: vec![(x, y)],
+                                labels: Vec::new(),
+                            });
+                            knobs.push(vec![values]);
+                        }
                     }
                 }
                 if series.is_empty() {
                     continue;
+                }
+                for (ser, vals) in series.iter_mut().zip(&knobs) {
+                    let varying: Vec<usize> =
+                        (0..knob_cols.len()).filter(|&k| vals.iter().any(|v| v[k] != vals[0][k])).collect();
+                    ser.labels = vals
+                        .iter()
+                        .map(|v| {
+                            let parts: Vec<String> =
+                                varying.iter().map(|&k| format!("{}={}", header[knob_cols[k]], v[k])).collect();
+                            parts.join(", ")
+                        })
+                        .collect();
                 }
                 series.sort_by_key(|s| s.style);
                 out.push((
@@ -152,11 +181,12 @@ mod tests {
 
     #[test]
     fn charts_per_trace_and_measure_with_stable_styles() {
-        let csv = "spec,trace,method,hole_fill,host_ms_per_frame,cycles_per_frame,dram_gbps_at_target_rate,psnr_luma_db,ssim_luma,flip_mean\n\
-                   s,room,a,x,1.0,,,20,0.8,0.1\n\
-                   s,room,b,x,2.0,,,25,0.9,0.05\n\
-                   s,room,hardware,,,1000,0.5,24,0.85,0.06\n\
-                   s,room a,b,x,2.0,,,25,0.9,0.05\n";
+        let csv = "spec,trace,method,hole_fill,runs,tile,point,host_ms_per_frame,cycles_per_frame,dram_gbps_at_target_rate,psnr_luma_db,ssim_luma,flip_mean\n\
+                   s,room,a,x,1,,p,1.0,,,20,0.8,0.1\n\
+                   s,room,b,x,1,,p,2.0,,,25,0.9,0.05\n\
+                   s,room,hardware,,,8,p,,1000,0.5,24,0.85,0.06\n\
+                   s,room,hardware,,,16,p,,900,0.4,24,0.85,0.06\n\
+                   s,room a,b,x,1,,p,2.0,,,25,0.9,0.05\n";
         let charts = charts_from_csv(csv).unwrap();
         let stems: Vec<&str> = charts.iter().map(|c| c.0.as_str()).collect();
         assert_eq!(stems.len(), 3 * 3 + 3, "{stems:?}");
@@ -167,6 +197,8 @@ mod tests {
         assert_eq!((other.series[0].name.as_str(), other.series[0].style), ("b + x", 1));
         let hw = &charts.iter().find(|c| c.0 == "room.psnr_luma_db-vs-cycles_per_frame").unwrap().1;
         assert_eq!(hw.series[0].name, "hardware");
+        assert_eq!(hw.series[0].labels, ["tile=8", "tile=16"], "only varying knobs label points");
+        assert_eq!(other.series[0].labels, [""]);
         assert!(hw.title.starts_with("s: room"));
     }
 }

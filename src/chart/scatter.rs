@@ -50,6 +50,9 @@ pub struct Series {
     pub style: usize,
     /// `(cost, quality)` points; non-finite ones are not drawn.
     pub points: Vec<(f64, f64)>,
+    /// A short label beside each point (the knob values that differ
+    /// between the series' points), or empty.
+    pub labels: Vec<String>,
 }
 
 type DrawResult<T> = Result<T, String>;
@@ -173,16 +176,58 @@ where
     let front: Vec<(f64, f64)> = pareto_front(&all, s.better).into_iter().map(|i| all[i]).collect();
     chart.draw_series(std::iter::once(PathElement::new(step_line(&front), BLACK.stroke_width(2)))).map_err(e)?;
     let area = chart.plotting_area();
+    let label_style = (FAMILY, 11).into_font().color(&RGBColor(70, 70, 70));
+    let mut taken: Vec<(i32, i32, i32, i32)> = Vec::new();
     for ser in &s.series {
         let (colour, shape) = series_style(ser.style);
-        for p in ser.points.iter().filter(|p| p.0.is_finite() && p.1.is_finite()) {
-            draw_marker(root, area.map_coordinate(p), MARKER, shape, colour).map_err(e)?;
+        for (i, p) in ser.points.iter().enumerate().filter(|(_, p)| p.0.is_finite() && p.1.is_finite()) {
+            let c = area.map_coordinate(p);
+            draw_marker(root, c, MARKER, shape, colour).map_err(e)?;
+            if let Some(l) = ser.labels.get(i).filter(|l| !l.is_empty()) {
+                let (w, h) = root.estimate_text_size(l, &label_style).map_err(e)?;
+                let at = label_place(c, (w as i32, h as i32), &taken, area.get_pixel_range());
+                taken.push((at.0, at.1, at.0 + w as i32, at.1 + h as i32));
+                root.draw(&Text::new(l.clone(), at, label_style.clone())).map_err(e)?;
+            }
         }
     }
     for p in &front {
         root.draw(&Circle::new(area.map_coordinate(p), MARKER + 4, BLACK.stroke_width(2))).map_err(e)?;
     }
     Ok(())
+}
+
+/// Top-left corner for a point label of size `(w, h)` next to the marker at
+/// `c`: the first of a few places around it (right above, right below,
+/// further up and down on the right, then left) that lies inside `bounds`
+/// (x range, y range) and overlaps no label drawn before; failing that,
+/// the first place inside `bounds`.
+fn label_place(
+    c: (i32, i32),
+    (w, h): (i32, i32),
+    taken: &[(i32, i32, i32, i32)],
+    bounds: (Range<i32>, Range<i32>),
+) -> (i32, i32) {
+    let gap = MARKER + 3;
+    let (right, left) = (c.0 + gap, c.0 - gap - w);
+    let (above, below) = (c.1 - gap - h, c.1 + gap);
+    let mut places = vec![(right, above), (right, below)];
+    for k in 1..=3 {
+        places.push((right, above - k * (h + 2)));
+        places.push((right, below + k * (h + 2)));
+    }
+    places.extend([(left, above), (left, below)]);
+    let inside = |&(x, y): &(i32, i32)| {
+        x >= bounds.0.start && x + w <= bounds.0.end && y >= bounds.1.start && y + h <= bounds.1.end
+    };
+    let free =
+        |&(x, y): &(i32, i32)| !taken.iter().any(|&(x0, y0, x1, y1)| x < x1 && x + w > x0 && y < y1 && y + h > y0);
+    places
+        .iter()
+        .copied()
+        .find(|p| inside(p) && free(p))
+        .or_else(|| places.iter().copied().find(inside))
+        .unwrap_or(places[0])
 }
 
 fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawResult<()> {
@@ -227,7 +272,11 @@ pub fn render_png(s: &Scatter) -> DrawResult<Vec<u8>> {
     }
     let mut png = Vec::new();
     image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut png),
+        image::codecs::png::PngEncoder::new_with_quality(
+            &mut png,
+            image::codecs::png::CompressionType::Best,
+            image::codecs::png::FilterType::Adaptive,
+        ),
         &rgb,
         WIDTH,
         HEIGHT,
@@ -248,10 +297,26 @@ mod tests {
             y_label: "PSNR (dB)".into(),
             better: Better::Higher,
             series: vec![
-                Series { name: "a".into(), style: 0, points: vec![(1.0, 20.0), (2.0, 25.0)] },
-                Series { name: "b".into(), style: 1, points: vec![(1.5, 21.0), (f64::NAN, 3.0)] },
+                Series {
+                    name: "a".into(),
+                    style: 0,
+                    points: vec![(1.0, 20.0), (2.0, 25.0)],
+                    labels: vec!["k=1".into(), "k=2".into()],
+                },
+                Series { name: "b".into(), style: 1, points: vec![(1.5, 21.0), (f64::NAN, 3.0)], labels: vec![] },
             ],
         }
+    }
+
+    #[test]
+    fn point_labels_avoid_each_other() {
+        let all = || (0..1000, 0..1000);
+        let a = label_place((100, 100), (50, 10), &[], all());
+        let b = label_place((102, 100), (50, 10), &[(a.0, a.1, a.0 + 50, a.1 + 10)], all());
+        assert_eq!(a, (108, 82));
+        assert_eq!(b, (110, 108), "below the first");
+        let c = label_place((990, 100), (50, 10), &[], all());
+        assert_eq!(c, (932, 82), "left of a point at the right edge");
     }
 
     #[test]
