@@ -216,3 +216,56 @@ fn charts_are_written_valid_and_the_same_bytes_for_the_same_csv() {
         assert_eq!(std::fs::read(charts.join(n)).unwrap(), std::fs::read(d.path().join(n)).unwrap(), "{n}");
     }
 }
+
+#[test]
+fn the_committed_charts_are_the_chart_commands_output_for_the_committed_csv() {
+    let csv = std::fs::read_to_string(root().join("docs/results/speed-accuracy.csv")).unwrap();
+    let dir = root().join("docs/charts/speed-accuracy");
+    let charts = postwarp::chart::charts_from_csv(&csv).unwrap();
+    let mut expected: Vec<String> = charts.iter().flat_map(|(s, _)| [format!("{s}.png"), format!("{s}.svg")]).collect();
+    expected.sort();
+    let mut present: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    present.sort();
+    assert_eq!(present, expected, "run: postwarp chart docs/results/speed-accuracy.csv --out {}", dir.display());
+    for (stem, chart) in &charts {
+        let svg = postwarp::chart::scatter::render_svg(chart).unwrap();
+        assert!(svg.as_bytes() == std::fs::read(dir.join(format!("{stem}.svg"))).unwrap(), "{stem}.svg is stale");
+        let png = postwarp::chart::scatter::render_png(chart).unwrap();
+        assert!(png == std::fs::read(dir.join(format!("{stem}.png"))).unwrap(), "{stem}.png is stale");
+    }
+    // Every chart docs/results.md shows exists.
+    let md = std::fs::read_to_string(root().join("docs/results.md")).unwrap();
+    for link in md.split("](charts/").skip(1) {
+        let file = link.split(')').next().unwrap();
+        assert!(root().join("docs/charts").join(file).is_file(), "docs/results.md links a missing {file}");
+    }
+}
+
+#[test]
+fn docs_describe_every_column_and_trace_key() {
+    use postwarp::sweep::{point::METRIC_COLUMNS, trace_fields::TRACE_FIELDS};
+    let doc = std::fs::read_to_string(root().join("docs/sweep.md")).unwrap();
+    let named = |k: &str| doc.contains(&format!("| `{k}` |"));
+    for c in ["spec", "trace", "trace_path", "scene", "method", "hole_fill", "runs", "point"] {
+        assert!(named(c), "docs/sweep.md lacks a row for column `{c}`");
+    }
+    for (c, unit, desc, _) in METRIC_COLUMNS {
+        assert!(named(c), "docs/sweep.md lacks a row for column `{c}`");
+        assert!(!unit.is_empty() && !desc.is_empty());
+    }
+    for (key, unit, desc, col) in TRACE_FIELDS {
+        assert!(named(key), "docs/sweep.md lacks a row for trace key `{key}`");
+        assert!(named(col), "docs/sweep.md lacks a row for column `{col}`");
+        assert!(!unit.is_empty() && !desc.is_empty());
+    }
+    for k in ["name", "runs", "images", "path", "frames", "methods", "hole_fills", "golden", "hardware"] {
+        assert!(doc.contains(&format!("`{k}`")), "docs/sweep.md does not mention `{k}`");
+    }
+    // The header the code writes for a spec naming no knobs: every column documented.
+    let spec = postwarp::sweep::Spec::load(&root().join("specs/speed-accuracy.toml")).unwrap();
+    let plan = postwarp::sweep::plan::plan(&spec).unwrap();
+    for c in postwarp::sweep::results::header(&plan) {
+        assert!(named(&c) || doc.contains(&format!("`{c}`")), "column `{c}` is not in docs/sweep.md");
+    }
+}
