@@ -170,9 +170,10 @@ impl Spec {
     }
 }
 
+/// A value as written, cut to 40 characters for messages.
 fn describe(v: &toml::Value) -> String {
     let s = v.to_string();
-    if s.len() > 40 { format!("{}...", &s[..40]) } else { s }
+    if s.chars().count() > 40 { format!("{}...", s.chars().take(40).collect::<String>()) } else { s }
 }
 
 impl Parser<'_> {
@@ -535,6 +536,14 @@ dest_cache_bytes = [65536, 131072]
         assert!(e.message.contains("hole_fills"), "{e}");
         let e = parse("methods = \"all\"\n[[traces]]\npath = \"nowhere\"\n").unwrap_err();
         assert!(e.key == "traces[0].path" && e.message.contains("no trace"), "{e}");
+        let e = parse(&format!(
+            "name = {}\nmethods = \"all\"\n[[traces]]\npath = \"../traces/room\"\n",
+            "[\"é\"]".repeat(1)
+        ))
+        .unwrap_err();
+        assert_eq!(e.key, "name");
+        let e = parse(&format!("runs = \"{}\"\nmethods = \"all\"\n", "é".repeat(50))).unwrap_err();
+        assert!(e.message.ends_with("...") && e.key == "runs", "{e}");
         let e = parse("methods = \"all\"\n[[traces]\n").unwrap_err();
         assert!(e.key.is_empty() && e.at.is_some(), "{e}");
         let e = parse("[[sweep]]\nmethods = \"all\"\n[[sweep.traces]]\npath = \"../traces/room\"\n[[sweep]]\nmethods = \"all\"\n[[sweep.traces]]\nscene = \"room\"\nwdth = 3\n").unwrap_err();
