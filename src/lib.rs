@@ -6,6 +6,7 @@
 //! (frame commands) → golden model | hardware units → images + stats →
 //! report. See `ARCHITECTURE.md`.
 
+pub mod chart;
 pub mod cli;
 pub mod fuzz_entry;
 pub mod golden;
@@ -19,6 +20,7 @@ pub mod progress;
 pub mod report;
 pub mod run;
 pub mod scene;
+pub mod sweep;
 pub mod trace;
 pub mod tracegen;
 

@@ -192,6 +192,18 @@ pub fn scene_path(scene: &Scene, kind: PathKind) -> anyhow::Result<Box<dyn Camer
 /// Render `scene` along `spec` into a trace in `out`; `command` is recorded
 /// as provenance. Returns the manifest path.
 pub fn make_trace(scene: &Scene, spec: &TraceSpec, out: &Path, command: &str) -> anyhow::Result<PathBuf> {
+    make_trace_with(scene, spec, out, command, true)
+}
+
+/// [`make_trace`], with a progress bar only if `progress` (and stderr is a
+/// terminal): parallel callers (`postwarp sweep`) turn it off.
+pub fn make_trace_with(
+    scene: &Scene,
+    spec: &TraceSpec,
+    out: &Path,
+    command: &str,
+    progress: bool,
+) -> anyhow::Result<PathBuf> {
     spec.validate()?;
     let path = scene_path(scene, spec.path)?;
     let display = spec.display_intrinsics();
@@ -211,7 +223,8 @@ pub fn make_trace(scene: &Scene, spec: &TraceSpec, out: &Path, command: &str) ->
     let (dh, dv) = display.fov_deg();
     w.note(format!("field of view: display {dh:.1}x{dv:.1} deg, references {rh:.1}x{rv:.1} deg"));
 
-    let bar = crate::progress::bar((n_refs + if spec.truth { spec.frames } else { 0 }) as u64, "rendering");
+    let steps = (n_refs + if spec.truth { spec.frames } else { 0 }) as u64;
+    let bar = if progress { crate::progress::bar(steps, "rendering") } else { indicatif::ProgressBar::hidden() };
     for j in 0..n_refs {
         let t = j as f64 / spec.ref_rate_hz;
         let pose = predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s);

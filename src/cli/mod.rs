@@ -1,6 +1,7 @@
 //! The `postwarp` command line. One file per subcommand; each parses its
 //! flags with clap and calls into the library.
 
+mod chart;
 mod compare;
 mod golden;
 mod import;
@@ -8,6 +9,7 @@ mod info;
 mod make_trace;
 mod methods;
 mod simulate;
+mod sweep;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -50,6 +52,14 @@ enum Command {
     /// and write a table of primitives, host ms per frame and quality
     /// (compare.md, compare.csv) with each run's frames and report.
     Compare(compare::Args),
+    /// Run the cross product of traces x methods x hole fills x knobs of a
+    /// sweep specification (docs/sweep.md) in parallel, resumably, into
+    /// results.csv (every parameter and metric) and quality-against-cost
+    /// charts with their Pareto fronts.
+    Sweep(sweep::Args),
+    /// Draw the charts of a sweep's results.csv again (same CSV, same
+    /// bytes).
+    Chart(chart::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -74,5 +84,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Simulate(a) => simulate::run(a),
         Command::Methods(a) => methods::run(a),
         Command::Compare(a) => compare::run(a),
+        Command::Sweep(a) => sweep::run(a),
+        Command::Chart(a) => chart::run(a),
     }
 }

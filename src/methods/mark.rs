@@ -12,8 +12,10 @@
 //!   it runs once per reference epipole, in warp order, on the finished
 //!   frame.
 //!
-//! Rules: the golden configuration is the default (`docs/golden.md`) with
-//! only the reconstruction and the hole fill switched; the A-buffer trip of
+//! Rules: the golden configuration is the default (`docs/golden.md`), or
+//! the one given to [`Reconstruction::with_golden_config`] (`postwarp
+//! sweep`'s `[golden]` knobs), with only the reconstruction and the hole
+//! fill switched; the A-buffer trip of
 //! each reference is [`Reconstruction::prepare`] (timed apart, as the
 //! golden run's `prepare_ms`); the derived frame's A-buffer trips between
 //! warps are part of the method and of its time.
@@ -31,16 +33,20 @@ use std::sync::Mutex;
 #[derive(Default)]
 pub struct MarkAa {
     warper: Mutex<Warper>,
+    /// Knobs (`reconstruction` and `hole_fill` are overridden per run).
+    cfg: GoldenConfig,
 }
 
 /// The golden model's general path.
 #[derive(Default)]
 pub struct MarkGeneral {
     warper: Mutex<Warper>,
+    /// Knobs (`reconstruction` and `hole_fill` are overridden per run).
+    cfg: GoldenConfig,
 }
 
-fn config(path: Path, hole_fill: bool) -> GoldenConfig {
-    GoldenConfig { reconstruction: path, hole_fill, ..GoldenConfig::default() }
+fn config(base: &GoldenConfig, path: Path, hole_fill: bool) -> GoldenConfig {
+    GoldenConfig { reconstruction: path, hole_fill, ..base.clone() }
 }
 
 fn prepared<'a>(input: &'a Input) -> Vec<&'a PreparedReference> {
@@ -54,13 +60,14 @@ fn prepared<'a>(input: &'a Input) -> Vec<&'a PreparedReference> {
 /// Run the golden model; with `fill` = the epipolar fill, inside its loop.
 fn run(
     warper: &Mutex<Warper>,
+    base: &GoldenConfig,
     path: Path,
     input: &Input,
     fill: Option<&dyn HoleFill>,
     out: &mut DestPlanes,
 ) -> (Counters, Counters) {
     let inside = fill.is_some_and(|f| f.info().name == Epipolar.info().name);
-    let cfg = config(path, inside);
+    let cfg = config(base, path, inside);
     let refs = prepared(input);
     let frame = warper.lock().expect("warper lock").warp_frame(input.cmd, &refs, &cfg);
     *out = frame.samples;
@@ -114,15 +121,19 @@ impl Reconstruction for MarkAa {
     }
 
     fn prepare(&self, img: &SampleImage, ss: u32) -> Prepared {
-        Box::new(prepare_reference(img, ss, &GoldenConfig::default()))
+        Box::new(prepare_reference(img, ss, &self.cfg))
+    }
+
+    fn with_golden_config(&self, cfg: &GoldenConfig) -> Option<Box<dyn Reconstruction>> {
+        Some(Box::new(MarkAa { warper: Mutex::default(), cfg: cfg.clone() }))
     }
 
     fn reconstruct(&self, input: &Input, out: &mut DestPlanes) -> Counters {
-        run(&self.warper, Path::AaRect, input, None, out).0
+        run(&self.warper, &self.cfg, Path::AaRect, input, None, out).0
     }
 
     fn reconstruct_and_fill(&self, input: &Input, fill: &dyn HoleFill, out: &mut DestPlanes) -> (Counters, Counters) {
-        run(&self.warper, Path::AaRect, input, Some(fill), out)
+        run(&self.warper, &self.cfg, Path::AaRect, input, Some(fill), out)
     }
 }
 
@@ -138,15 +149,19 @@ impl Reconstruction for MarkGeneral {
     }
 
     fn prepare(&self, img: &SampleImage, ss: u32) -> Prepared {
-        Box::new(prepare_reference(img, ss, &GoldenConfig::default()))
+        Box::new(prepare_reference(img, ss, &self.cfg))
+    }
+
+    fn with_golden_config(&self, cfg: &GoldenConfig) -> Option<Box<dyn Reconstruction>> {
+        Some(Box::new(MarkGeneral { warper: Mutex::default(), cfg: cfg.clone() }))
     }
 
     fn reconstruct(&self, input: &Input, out: &mut DestPlanes) -> Counters {
-        run(&self.warper, Path::General, input, None, out).0
+        run(&self.warper, &self.cfg, Path::General, input, None, out).0
     }
 
     fn reconstruct_and_fill(&self, input: &Input, fill: &dyn HoleFill, out: &mut DestPlanes) -> (Counters, Counters) {
-        run(&self.warper, Path::General, input, Some(fill), out)
+        run(&self.warper, &self.cfg, Path::General, input, Some(fill), out)
     }
 }
 

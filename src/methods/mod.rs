@@ -37,6 +37,7 @@ pub mod smit_quad;
 pub mod smit_warp;
 pub mod stretch;
 
+use crate::golden::config::GoldenConfig;
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
 use bitvec::vec::BitVec;
@@ -113,6 +114,15 @@ pub trait Reconstruction: Send + Sync {
     /// sample-grid size): set `real`, `colour`, `inv_z` and `source` of
     /// every sample a surface covers.
     fn reconstruct(&self, input: &Input, out: &mut DestPlanes) -> Counters;
+
+    /// This method configured with the golden model's knobs
+    /// (`docs/golden.md`; `reconstruction` and `hole_fill` are set by the
+    /// method and the hole fill, not by `cfg`), or `None` if the golden
+    /// knobs do not apply to it (the default). `postwarp sweep` multiplies
+    /// only the methods that return `Some` by its `[golden]` axes.
+    fn with_golden_config(&self, _cfg: &GoldenConfig) -> Option<Box<dyn Reconstruction>> {
+        None
+    }
 
     /// Reconstruct and fill in one go. The default reconstructs, then
     /// calls `fill`; a method whose paper interleaves the two (Mark's

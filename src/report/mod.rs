@@ -7,6 +7,7 @@
 //! Every byte is deterministic for a given trace and configuration except
 //! the host-time fields (`host_ms`, `prepare_ms`).
 
+pub mod csv;
 pub mod images;
 pub mod table;
 

@@ -9,8 +9,9 @@ use anyhow::{Context, anyhow, bail};
 use postwarp_rtl::config::{EngineConfig, KNOBS};
 use std::path::Path;
 
-/// Set knob `key` of `c` from a TOML value.
-fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), String> {
+/// Set knob `key` of `c` from a TOML value; the error says what was
+/// expected (the caller names the file and the key).
+pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), String> {
     let int = || v.as_integer().filter(|&n| n >= 0).map(|n| n as u64).ok_or("expected a non-negative integer");
     let u32v = || int().and_then(|n| u32::try_from(n).map_err(|_| "expected an integer below 2^32"));
     let real = || v.as_float().or_else(|| v.as_integer().map(|n| n as f64)).ok_or("expected a number");

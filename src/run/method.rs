@@ -10,9 +10,12 @@
 //!    frame allocated before the clock starts; `host_ms` is the median. All
 //!    runs must give the same samples (else the run fails: the method is
 //!    not deterministic).
+//!    The timed section is [`timing::timed`](super::timing::timed): one at a
+//!    time in the process.
 //! 3. Outputs per frame: `frame-NNNN.png`, `holes-NNNN.png` and, with
 //!    ground truth, `diff-NNNN.png`; then `report.json`. All written
-//!    atomically.
+//!    atomically. [`measure_method`] without an output directory writes
+//!    nothing and returns the same report (`postwarp sweep`).
 
 use crate::methods::{self, HoleFill, Input, MethodFrame, Prepared, Reconstruction};
 use crate::metrics::{MetricInput, evaluate};
@@ -24,6 +27,8 @@ use serde_json::{Value, json};
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
+
+use super::timing::timed;
 
 /// What a method run produced.
 pub struct MethodRun {
@@ -40,7 +45,8 @@ fn median(mut v: Vec<f64>) -> f64 {
     if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
 }
 
-/// Run `rec` + `fill` on `trace`, `runs` times per frame, writing into `out`.
+/// Run `rec` + `fill` on `trace`, `runs` times per frame, writing the
+/// frames and `report.json` into `out`, with a progress bar on a terminal.
 pub fn run_method(
     trace: &Trace,
     rec: &dyn Reconstruction,
@@ -48,8 +54,27 @@ pub fn run_method(
     runs: u32,
     out: &Path,
 ) -> anyhow::Result<MethodRun> {
+    let bar = crate::progress::bar(trace.derived.len() as u64, rec.info().name);
+    let r = measure_method(trace, rec, fill, runs, Some(out), &bar)?;
+    bar.finish_and_clear();
+    Ok(r)
+}
+
+/// Run `rec` + `fill` on `trace`, `runs` times per frame, and build the
+/// report; with `out`, also write the frame files and `report.json` there.
+/// `bar` advances once per frame.
+pub fn measure_method(
+    trace: &Trace,
+    rec: &dyn Reconstruction,
+    fill: &dyn HoleFill,
+    runs: u32,
+    out: Option<&Path>,
+    bar: &indicatif::ProgressBar,
+) -> anyhow::Result<MethodRun> {
     anyhow::ensure!(runs >= 1, "--runs must be at least 1");
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    if let Some(out) = out {
+        std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    }
     let ss = trace.display.supersample;
     let (w, h) = (trace.display.width, trace.display.height);
     let mut last_use = HashMap::new();
@@ -61,7 +86,6 @@ pub fn run_method(
     let mut loaded: HashMap<usize, (postwarp_rtl::SampleImage, Prepared)> = HashMap::new();
     let mut prepare_ms = 0.0;
     let mut frames = Vec::new();
-    let bar = crate::progress::bar(trace.derived.len() as u64, rec.info().name);
     for (k, f) in trace.derived.iter().enumerate() {
         for &r in &f.references {
             if let std::collections::hash_map::Entry::Vacant(e) = loaded.entry(r) {
@@ -80,9 +104,8 @@ pub fn run_method(
         let mut frame: Option<MethodFrame> = None;
         for run in 0..runs {
             let empty = input.empty_frame();
-            let t = Instant::now();
-            let got = methods::render(rec, fill, &input, empty);
-            times.push(t.elapsed().as_secs_f64() * 1e3);
+            let (got, ms) = timed(|| methods::render(rec, fill, &input, empty));
+            times.push(ms);
             if let Some(first) = &frame {
                 anyhow::ensure!(
                     first.samples == got.samples,
@@ -106,20 +129,31 @@ pub fn run_method(
                     known: &truth.known,
                     covered: Some(&frame.covered),
                 })?;
-                write_diff_heatmap(
-                    &out.join(format!("diff-{k:04}.png")),
-                    w,
-                    h,
-                    &frame.pixels,
-                    &truth.colour,
-                    &truth.known,
-                    64.0,
-                )?;
+                if let Some(out) = out {
+                    write_diff_heatmap(
+                        &out.join(format!("diff-{k:04}.png")),
+                        w,
+                        h,
+                        &frame.pixels,
+                        &truth.colour,
+                        &truth.known,
+                        64.0,
+                    )?;
+                }
                 Some(q)
             }
         };
-        crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
-        write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &frame.samples.real, &frame.samples.hole)?;
+        if let Some(out) = out {
+            crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
+            write_hole_mask(
+                &out.join(format!("holes-{k:04}.png")),
+                w,
+                h,
+                ss,
+                &frame.samples.real,
+                &frame.samples.hole,
+            )?;
+        }
         let mut extra = serde_json::Map::new();
         extra.insert("primitives".into(), json!(frame.reconstruction.primitives));
         extra.insert("hole_samples".into(), json!(frame.samples.hole.count_ones()));
@@ -131,7 +165,6 @@ pub fn run_method(
         loaded.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
-    bar.finish_and_clear();
     let mut mean = mean_entry(&frames);
     if let Value::Object(m) = &mut mean {
         // Nested counter objects are per frame only.
@@ -151,8 +184,10 @@ pub fn run_method(
         "frames": frames,
         "mean": mean,
     });
-    let text = serde_json::to_string_pretty(&report)? + "\n";
-    crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    if let Some(out) = out {
+        let text = serde_json::to_string_pretty(&report)? + "\n";
+        crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    }
     Ok(MethodRun { report, table })
 }
 

@@ -7,3 +7,4 @@ pub mod hw_config;
 pub mod hw_config_toml;
 pub mod method;
 pub mod simulate;
+pub mod timing;

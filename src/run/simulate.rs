@@ -44,15 +44,33 @@ pub struct SimulateRun {
     pub summary: String,
 }
 
-/// Run `trace` on the hardware model configured by `cfg`, writing into `out`.
+/// Run `trace` on the hardware model configured by `cfg`, writing the
+/// frames and `report.json` into `out`, with a progress bar on a terminal.
 pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Result<SimulateRun> {
+    let bar = crate::progress::bar(trace.derived.len() as u64, "simulate");
+    let r = measure_hardware(trace, cfg, Some(out), &bar)?;
+    bar.finish_and_clear();
+    Ok(r)
+}
+
+/// Run `trace` on the hardware model configured by `cfg` beside the golden
+/// model and build the report; with `out`, also write the frame files and
+/// `report.json` there. `bar` advances once per frame.
+pub fn measure_hardware(
+    trace: &Trace,
+    cfg: &EngineConfig,
+    out: Option<&Path>,
+    bar: &indicatif::ProgressBar,
+) -> anyhow::Result<SimulateRun> {
     let mut cfg = cfg.clone();
     let ss = trace.display.supersample;
     let from_trace = cfg.supersample != ss;
     cfg.supersample = ss;
     let mut engine = Engine::new(cfg.clone()).map_err(|e| anyhow::anyhow!("hardware configuration: {e}"))?;
     let gcfg = golden_config_for(&cfg);
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    if let Some(out) = out {
+        std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    }
     let (w, h) = (trace.display.width, trace.display.height);
     let mut last_use = HashMap::new();
     for (k, f) in trace.derived.iter().enumerate() {
@@ -63,7 +81,6 @@ pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Re
     let mut refs: HashMap<usize, (HwReference, PreparedReference)> = HashMap::new();
     let mut warper = Warper::new();
     let mut frames = Vec::new();
-    let bar = crate::progress::bar(trace.derived.len() as u64, "simulate");
     for (k, f) in trace.derived.iter().enumerate() {
         for &r in &f.references {
             if let std::collections::hash_map::Entry::Vacant(e) = refs.entry(r) {
@@ -94,19 +111,23 @@ pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Re
                     known: &truth.known,
                     covered: Some(&hw.covered),
                 })?;
-                write_diff_heatmap(
-                    &out.join(format!("diff-{k:04}.png")),
-                    w,
-                    h,
-                    &hw.pixels,
-                    &truth.colour,
-                    &truth.known,
-                    64.0,
-                )?;
+                if let Some(out) = out {
+                    write_diff_heatmap(
+                        &out.join(format!("diff-{k:04}.png")),
+                        w,
+                        h,
+                        &hw.pixels,
+                        &truth.colour,
+                        &truth.known,
+                        64.0,
+                    )?;
+                }
                 serde_json::to_value(q)?
             }
         };
-        write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels)?;
+        if let Some(out) = out {
+            write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels)?;
+        }
         let mut e = frame_json(k, &hw.stats, &cfg);
         e.insert(
             "vs_golden".into(),
@@ -120,7 +141,6 @@ pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Re
         refs.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
-    bar.finish_and_clear();
     let total = total_entry(&frames);
     let mean = mean_entry(&frames, &cfg);
     let summary = summary_table(&frames, &mean);
@@ -133,8 +153,10 @@ pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Re
         "total": total,
         "mean": mean,
     });
-    let text = serde_json::to_string_pretty(&report)? + "\n";
-    crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    if let Some(out) = out {
+        let text = serde_json::to_string_pretty(&report)? + "\n";
+        crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    }
     Ok(SimulateRun { report, summary })
 }
 

@@ -1,0 +1,266 @@
+//! One point of a sweep: a trace, a method (with its hole fill and golden
+//! knobs) or the hardware model (with its configuration), run over every
+//! derived frame of the trace and reduced to [`Metrics`].
+//!
+//! A point runs through the same code as the single runs:
+//! [`measure_method`] (`postwarp golden --method`) for CPU methods and
+//! [`measure_hardware`] (`postwarp simulate`) for `hardware`; its metrics
+//! are read from the `mean` and `total` of the report those build.
+
+use crate::golden::config::GoldenConfig;
+use crate::methods;
+use crate::run::hw_config_toml::to_json;
+use crate::run::method::measure_method;
+use crate::run::simulate::measure_hardware;
+use crate::trace::Trace;
+use anyhow::Context;
+use postwarp_rtl::config::EngineConfig;
+use serde::{Deserialize, Serialize};
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// What runs at a point.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PointRun {
+    /// A CPU method from the registry.
+    Method {
+        /// Reconstruction name.
+        reconstruction: String,
+        /// Hole-fill name.
+        hole_fill: String,
+        /// Golden knobs, for methods that take them.
+        golden: Option<GoldenConfig>,
+        /// Timed runs per frame (host time = median).
+        runs: u32,
+    },
+    /// The cycle-level hardware model.
+    Hardware {
+        /// The preset the configuration started from.
+        preset: String,
+        /// The configuration (`supersample` = the trace's).
+        config: EngineConfig,
+    },
+}
+
+impl PointRun {
+    /// The `method` column.
+    pub fn method(&self) -> &str {
+        match self {
+            PointRun::Method { reconstruction, .. } => reconstruction,
+            PointRun::Hardware { .. } => "hardware",
+        }
+    }
+
+    /// The `hole_fill` column (empty for `hardware`, whose hole fill is
+    /// built in).
+    pub fn hole_fill(&self) -> &str {
+        match self {
+            PointRun::Method { hole_fill, .. } => hole_fill,
+            PointRun::Hardware { .. } => "",
+        }
+    }
+
+    /// The canonical description of the point, hashed for its file name:
+    /// the trace's content identity and frames used, the method, hole
+    /// fill, runs, and the complete golden or hardware configuration (so
+    /// a knob given at its default value is the same point).
+    pub fn key(&self, trace_identity: &str, frames: usize) -> String {
+        let (golden, hardware, runs) = match self {
+            PointRun::Method { golden, runs, .. } => (
+                golden.as_ref().map_or(Value::Null, |g| serde_json::to_value(g).expect("config serializes")),
+                Value::Null,
+                json!(runs),
+            ),
+            PointRun::Hardware { config, .. } => (Value::Null, to_json(config), Value::Null),
+        };
+        let k = json!({
+            "format": 1,
+            "trace": trace_identity,
+            "frames": frames,
+            "method": self.method(),
+            "hole_fill": self.hole_fill(),
+            "runs": runs,
+            "golden": golden,
+            "hardware": hardware,
+        });
+        serde_json::to_string(&k).expect("key serializes")
+    }
+}
+
+/// Results of one point: means over its derived frames. `None` where a
+/// metric does not apply (hardware columns of CPU methods and the
+/// reverse) or nothing was scored (no ground truth).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Derived frames run (frames).
+    pub frames: u64,
+    /// Mean luma PSNR against ground truth (dB); frames with identical
+    /// images (+inf) are left out of the mean, as in `report.json`.
+    pub psnr_luma_db: Option<f64>,
+    /// Mean luma SSIM (1).
+    pub ssim_luma: Option<f64>,
+    /// Mean of each frame's mean LDR-FLIP (1; lower is better).
+    pub flip_mean: Option<f64>,
+    /// Mean share of known pixels not covered by a real sample (fraction).
+    pub hole_fraction: Option<f64>,
+    /// Mean primitives drawn per frame, CPU methods (primitives).
+    pub primitives_per_frame: Option<f64>,
+    /// Mean over frames of the median host time of `runs` runs, CPU
+    /// methods (ms; not deterministic).
+    pub host_ms_per_frame: Option<f64>,
+    /// Mean engine cycles per frame, hardware (cycles).
+    pub cycles_per_frame: Option<f64>,
+    /// Mean DRAM bytes read per frame, hardware (bytes).
+    pub dram_read_bytes_per_frame: Option<f64>,
+    /// Mean DRAM bytes written per frame, hardware (bytes).
+    pub dram_write_bytes_per_frame: Option<f64>,
+    /// DRAM bandwidth at the configuration's target frame rate, hardware
+    /// (GB/s): mean bytes per frame · views · target rate.
+    pub dram_gbps_at_target_rate: Option<f64>,
+    /// Frames per second the engine sustains at its clock, hardware (Hz):
+    /// clock / (mean cycles · views).
+    pub frame_rate_at_clock_hz: Option<f64>,
+    /// Destination-cache hits over accesses, all frames together,
+    /// hardware (fraction).
+    pub dest_cache_hit_rate: Option<f64>,
+    /// Frames whose hardware image equals the golden model's bit for bit,
+    /// hardware (frames).
+    pub golden_identical_frames: Option<u64>,
+}
+
+/// (column, unit, description, deterministic) of every metric in
+/// `results.csv`, in column order; each is a [`Metrics`] field.
+pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
+    ("psnr_luma_db", "dB", "mean luma PSNR against ground truth (+inf frames left out)", true),
+    ("ssim_luma", "1", "mean luma SSIM", true),
+    ("flip_mean", "1", "mean LDR-FLIP (lower is better)", true),
+    ("hole_fraction", "fraction", "mean share of known pixels not covered by a real sample", true),
+    ("primitives_per_frame", "primitives", "mean primitives drawn per frame (CPU methods)", true),
+    ("host_ms_per_frame", "ms", "mean over frames of the median host time of `runs` runs (CPU methods)", false),
+    ("cycles_per_frame", "cycles", "mean engine cycles per frame (hardware)", true),
+    ("dram_read_bytes_per_frame", "bytes", "mean DRAM bytes read per frame (hardware)", true),
+    ("dram_write_bytes_per_frame", "bytes", "mean DRAM bytes written per frame (hardware)", true),
+    ("dram_gbps_at_target_rate", "GB/s", "DRAM bandwidth at target_frame_rate_hz for every view (hardware)", true),
+    ("frame_rate_at_clock_hz", "Hz", "frames per second at clock_hz, every view (hardware)", true),
+    ("dest_cache_hit_rate", "fraction", "destination-cache hits / accesses over all frames (hardware)", true),
+    ("golden_identical_frames", "frames", "frames whose image equals the golden model's bit for bit (hardware)", true),
+];
+
+fn num(v: &Value) -> Option<f64> {
+    v.as_f64().filter(|x| x.is_finite())
+}
+
+impl Metrics {
+    /// From a `postwarp golden --method` report.
+    pub fn from_method_report(r: &Value) -> Metrics {
+        let m = &r["mean"];
+        Metrics {
+            frames: r["frames"].as_array().map_or(0, |f| f.len() as u64),
+            psnr_luma_db: num(&m["psnr_luma_db"]),
+            ssim_luma: num(&m["ssim_luma"]),
+            flip_mean: num(&m["flip_mean"]),
+            hole_fraction: num(&m["hole_fraction"]),
+            primitives_per_frame: num(&m["primitives"]),
+            host_ms_per_frame: num(&m["host_ms"]),
+            ..Metrics::default()
+        }
+    }
+
+    /// From a `postwarp simulate` report.
+    pub fn from_hardware_report(r: &Value) -> Metrics {
+        let (m, t) = (&r["mean"], &r["total"]);
+        let q = &m["vs_truth"];
+        let d = &t["dest_cache"];
+        let hit_rate = match (d["hits"].as_u64(), d["accesses"].as_u64()) {
+            (Some(h), Some(a)) if a > 0 => Some(h as f64 / a as f64),
+            _ => None,
+        };
+        Metrics {
+            frames: r["frames"].as_array().map_or(0, |f| f.len() as u64),
+            psnr_luma_db: num(&q["psnr_luma_db"]),
+            ssim_luma: num(&q["ssim_luma"]),
+            flip_mean: num(&q["flip_mean"]),
+            hole_fraction: num(&q["hole_fraction"]),
+            cycles_per_frame: num(&m["cycles"]),
+            dram_read_bytes_per_frame: num(&m["dram_read_bytes"]),
+            dram_write_bytes_per_frame: num(&m["dram_write_bytes"]),
+            dram_gbps_at_target_rate: num(&m["bandwidth_gbps_at_target_rate"]),
+            frame_rate_at_clock_hz: num(&m["frame_rate_at_clock_hz"]),
+            dest_cache_hit_rate: hit_rate,
+            golden_identical_frames: t["identical_frames"].as_u64(),
+            ..Metrics::default()
+        }
+    }
+
+    /// The value of metric column `col` as CSV text (empty if `None`).
+    pub fn cell(&self, col: &str) -> String {
+        let v = serde_json::to_value(self).expect("metrics serialize");
+        match &v[col] {
+            Value::Null => String::new(),
+            Value::Number(n) => match n.as_f64() {
+                Some(x) if !n.is_u64() && !n.is_i64() => format!("{x}"),
+                _ => n.to_string(),
+            },
+            other => other.to_string(),
+        }
+    }
+}
+
+/// Run one point on `trace` (already limited to the frames used). With
+/// `images`, the run's frames, heat-maps and `report.json` are written
+/// there, as `postwarp golden --method` / `postwarp simulate` would.
+pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow::Result<Metrics> {
+    let quiet = indicatif::ProgressBar::hidden();
+    match run {
+        PointRun::Method { reconstruction, hole_fill, golden, runs } => {
+            let mut rec = methods::reconstruction(reconstruction)?;
+            if let Some(cfg) = golden {
+                rec = rec
+                    .with_golden_config(cfg)
+                    .with_context(|| format!("method {reconstruction} does not take golden knobs"))?;
+            }
+            let fill = methods::hole_fill(hole_fill)?;
+            let r = measure_method(trace, rec.as_ref(), fill.as_ref(), *runs, images, &quiet)?;
+            Ok(Metrics::from_method_report(&r.report))
+        }
+        PointRun::Hardware { config, .. } => {
+            let r = measure_hardware(trace, config, images, &quiet)?;
+            Ok(Metrics::from_hardware_report(&r.report))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_metric_column_is_a_field_and_cells_print_numbers_exactly() {
+        let m = Metrics { psnr_luma_db: Some(0.1 + 0.2), golden_identical_frames: Some(2), ..Metrics::default() };
+        let v = serde_json::to_value(&m).unwrap();
+        let fields: Vec<&String> = v.as_object().unwrap().keys().filter(|k| *k != "frames").collect();
+        let cols: Vec<&str> = METRIC_COLUMNS.iter().map(|c| c.0).collect();
+        assert_eq!(fields, cols);
+        assert_eq!(m.cell("psnr_luma_db"), "0.30000000000000004");
+        assert_eq!(m.cell("golden_identical_frames"), "2");
+        assert_eq!(m.cell("ssim_luma"), "");
+        let back: Metrics = serde_json::from_str(&serde_json::to_string(&m).unwrap()).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn keys_ignore_how_a_default_was_reached_but_not_the_trace() {
+        let a = PointRun::Method {
+            reconstruction: "m".into(),
+            hole_fill: "f".into(),
+            golden: Some(GoldenConfig::default()),
+            runs: 1,
+        };
+        assert_eq!(a.key("t", 2), a.clone().key("t", 2));
+        assert_ne!(a.key("t", 2), a.key("u", 2));
+        assert_ne!(a.key("t", 2), a.key("t", 1));
+        let h = PointRun::Hardware { preset: "mark1998".into(), config: EngineConfig::default() };
+        assert!(h.key("t", 1).contains("\"dest_cache_bytes\":589824"));
+        assert_eq!(h.hole_fill(), "");
+    }
+}

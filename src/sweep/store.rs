@@ -1,0 +1,66 @@
+//! Finished points on disk: `DIR/points/<hash>.json` holds the point's
+//! canonical key and its [`Metrics`]; a sweep that restarts loads these
+//! instead of running the points again.
+//!
+//! Rules:
+//! 1. The file name is the hash of the key ([`super::hash::hash_str`]); the
+//!    file holds the key too, and is used only if its key is the one
+//!    expected (a hash collision or a stale format is recomputed).
+//! 2. Files are written atomically: a file under its final name is a
+//!    finished point.
+
+use super::point::Metrics;
+use anyhow::Context;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
+
+/// The file of the point with hash `hash`.
+pub fn point_file(out: &Path, hash: &str) -> PathBuf {
+    out.join("points").join(format!("{hash}.json"))
+}
+
+/// The stored metrics of the point `key`, if it finished earlier.
+pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
+    let text = std::fs::read_to_string(point_file(out, hash)).ok()?;
+    let v: Value = serde_json::from_str(&text).ok()?;
+    let stored_key = serde_json::to_string(v.get("key")?).ok()?;
+    if stored_key != key {
+        return None;
+    }
+    serde_json::from_value(v.get("metrics")?.clone()).ok()
+}
+
+/// Store a finished point.
+pub fn save(out: &Path, hash: &str, key: &str, m: &Metrics) -> anyhow::Result<()> {
+    let key: Value = serde_json::from_str(key).context("point key")?;
+    let text = serde_json::to_string_pretty(&json!({"key": key, "metrics": m}))? + "\n";
+    let path = point_file(out, hash);
+    crate::io_util::write_bytes_atomically(&path, text.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_point_is_loaded_only_under_its_own_key() {
+        let dir = tempfile::tempdir().unwrap();
+        // Values whose last digit serde_json's fast float parser gets
+        // wrong without `float_roundtrip` (found by tests/sweep.rs).
+        let m = Metrics {
+            frames: 2,
+            psnr_luma_db: Some(31.25),
+            ssim_luma: Some(0.9531362610971579),
+            dest_cache_hit_rate: Some(0.9780281289703517),
+            ..Metrics::default()
+        };
+        let key = r#"{"format":1,"trace":"ab"}"#;
+        save(dir.path(), "h", key, &m).unwrap();
+        assert_eq!(load(dir.path(), "h", key), Some(m));
+        assert_eq!(load(dir.path(), "h", r#"{"format":1,"trace":"cd"}"#), None);
+        assert_eq!(load(dir.path(), "nothing", key), None);
+        std::fs::write(point_file(dir.path(), "h"), "{ torn").unwrap();
+        assert_eq!(load(dir.path(), "h", key), None);
+    }
+}
