@@ -26,6 +26,18 @@ fn sweep(spec: &Path, out: &Path, jobs: usize) -> String {
     String::from_utf8(o.stdout).unwrap()
 }
 
+/// Points of `specs/ci-tiny.toml` with the methods registered now: on each
+/// of its 2 traces, every reconstruction once, and twice (2 thresholds)
+/// when it takes the golden knobs; plus 2 hardware points.
+fn tiny_points() -> usize {
+    let g = postwarp::golden::config::GoldenConfig::default();
+    let per_trace: usize = postwarp::methods::reconstructions()
+        .iter()
+        .map(|m| if m.with_golden_config(&g).is_some() { 2 } else { 1 })
+        .sum();
+    2 * per_trace + 2
+}
+
 fn tiny() -> PathBuf {
     root().join("specs/ci-tiny.toml")
 }
@@ -36,7 +48,7 @@ fn base() -> &'static Path {
     BASE.get_or_init(|| {
         let d = tempfile::tempdir().unwrap();
         let out = sweep(&tiny(), d.path(), 1);
-        assert!(out.contains("12 points, 0 skipped"), "{out}");
+        assert!(out.contains(&format!("{} points, 0 skipped", tiny_points())), "{out}");
         d
     })
     .path()
@@ -63,7 +75,7 @@ fn results_do_not_depend_on_the_thread_count() {
     let d = tempfile::tempdir().unwrap();
     sweep(&tiny(), d.path(), 2);
     let b = rows(d.path());
-    assert_eq!(a.len(), 13, "a header and 12 points");
+    assert_eq!(a.len(), 1 + tiny_points(), "a header and a row per point");
     assert_eq!(without_host_time(&a), without_host_time(&b));
     // Every CPU point has a host time, every hardware point cycles.
     let (m, host, cycles) = (col(&a, "method"), col(&a, "host_ms_per_frame"), col(&a, "cycles_per_frame"));
@@ -112,12 +124,16 @@ fn a_resumed_sweep_recomputes_only_missing_points() {
     let points = d.path().join("points");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&points).unwrap().map(|e| e.unwrap().path()).collect();
     files.sort();
-    assert_eq!(files.len(), 12);
+    assert_eq!(files.len(), tiny_points());
     let before: Vec<Vec<u8>> = files.iter().map(|f| std::fs::read(f).unwrap()).collect();
     let csv_before = rows(d.path());
     std::fs::remove_file(&files[3]).unwrap();
     let out = sweep(&tiny(), d.path(), 2);
-    assert!(out.contains("12 points, 11 skipped") && out.contains("1 computed; 0 traces generated"), "{out}");
+    let n = tiny_points();
+    assert!(
+        out.contains(&format!("{n} points, {} skipped", n - 1)) && out.contains("1 computed; 0 traces generated"),
+        "{out}"
+    );
     for (i, f) in files.iter().enumerate() {
         let now = std::fs::read(f).unwrap();
         if i != 3 {
@@ -137,7 +153,7 @@ fn a_resumed_sweep_recomputes_only_missing_points() {
     }
     // Nothing missing: nothing computed.
     let out = sweep(&tiny(), d.path(), 1);
-    assert!(out.contains("12 points, 12 skipped") && out.contains("0 computed"), "{out}");
+    assert!(out.contains(&format!("{n} points, {n} skipped")) && out.contains("0 computed"), "{out}");
 }
 
 fn spec_error(text: &str) -> String {
