@@ -287,3 +287,34 @@ fn registered_with_the_low_pass_fill_as_default() {
     }
     assert_eq!(methods::hole_fill("low-pass").unwrap().info().name, "low-pass");
 }
+
+#[test]
+fn texture_filtering_is_linear_on_surfaces_and_nearest_at_steps() {
+    // A sub-sample shift (the far layer moves 0.1 samples, the near one
+    // 0.33): lookups fall between reference samples. Inside a layer they
+    // are bilinear; next to the step the nearest sample of the cell's own
+    // layer is read, so no derived sample mixes red with grey.
+    let cam = at_x(40, 20, 0.0);
+    let img = render(&cam, 2, &two_layers());
+    for r in Reduction::ALL {
+        let f = warp(&Schollmeyer::new(r), &NoFill, &at_x(40, 20, 0.01), &[(cam, img.clone())], 2);
+        let extra = &f.reconstruction.extra;
+        let count = |k: &str| extra[k].as_u64().unwrap_or_else(|| panic!("{r:?}: no counter {k}"));
+        assert!(count("linear_fragments") > 1000, "{r:?}: {extra:?}");
+        assert!(count("nearest_fragments") > 0, "{r:?}: {extra:?}");
+        let mut mixed_grey = 0;
+        for i in 0..f.samples.len() {
+            if !f.samples.real[i] {
+                continue;
+            }
+            let [cr, cg, cb] = f.samples.colour[i];
+            let red = cr == 1.0 && cg == 0.0 && cb == 0.0;
+            let grey = cr == cg && cg == cb;
+            assert!(red || grey, "{r:?}: sample {i} mixes the layers: {:?}", f.samples.colour[i]);
+            // Bilinear inside the striped far layer gives greys between
+            // its two stripe values.
+            mixed_grey += (grey && cr > 0.3 + 1e-4 && cr < 0.5 - 1e-4) as u32;
+        }
+        assert!(mixed_grey > 0, "{r:?}: no interpolated grey: linear filtering did not happen");
+    }
+}

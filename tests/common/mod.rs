@@ -85,6 +85,9 @@ pub fn prop_config(default: u32) -> proptest::test_runner::Config {
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default);
     proptest::test_runner::Config {
         cases,
+        // Suites that discard impossible cases (a point behind a random
+        // camera) reject a share of them: scale the limit with the cases.
+        max_global_rejects: cases.max(1024),
         failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource(
             "proptest-regressions",
         ))),
