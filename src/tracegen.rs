@@ -65,6 +65,15 @@ pub struct TraceSpec {
     pub start_s: f64,
     /// Render ground truth for every derived frame.
     pub truth: bool,
+    /// Stress: offset of every derived camera from its path pose, in its own
+    /// camera frame (x right, y down, z forward; scene units). Default 0.
+    pub derived_offset: [f64; 3],
+    /// Stress: roll of every derived camera about its view axis, relative to
+    /// its path pose (degrees, clockwise on screen). Default 0.
+    pub derived_roll_deg: f64,
+    /// Stress: quantise reference depth (1/z) to this many bits over the
+    /// reference's own 1/z range (0 = exact, the default; 1 to 24 bits).
+    pub depth_bits: u32,
 }
 
 impl Default for TraceSpec {
@@ -82,6 +91,9 @@ impl Default for TraceSpec {
             prediction_s: 0.4,
             start_s: 0.5,
             truth: true,
+            derived_offset: [0.0; 3],
+            derived_roll_deg: 0.0,
+            depth_bits: 0,
         }
     }
 }
@@ -118,6 +130,15 @@ impl TraceSpec {
         if !(self.start_s.is_finite() && self.start_s >= 0.0) {
             bail!("--start {}: expected seconds >= 0", self.start_s);
         }
+        if !self.derived_offset.iter().all(|v| v.is_finite()) {
+            bail!("derived_offset {:?}: expected finite scene units", self.derived_offset);
+        }
+        if !(self.derived_roll_deg.is_finite() && self.derived_roll_deg.abs() <= 180.0) {
+            bail!("derived_roll {}: expected degrees in [-180, 180]", self.derived_roll_deg);
+        }
+        if self.depth_bits > MAX_DEPTH_BITS {
+            bail!("depth_bits {}: expected 0 (exact) to {MAX_DEPTH_BITS}", self.depth_bits);
+        }
         // As `make_trace` counts them, in f64 so that no ratio overflows.
         let refs = ((self.frames - 1) as f64 * self.ref_rate_hz / self.derived_rate_hz + 1e-9).floor() + 2.0;
         if refs.is_nan() || refs > MAX_REFERENCE_FRAMES as f64 {
@@ -150,11 +171,47 @@ impl TraceSpec {
         Ok(Intrinsics { width: w, height: h, fx: f, fy: f, cx: 0.5 * (w as f64 - 1.0), cy: 0.5 * (h as f64 - 1.0) })
     }
 
+    /// The derived camera's pose: the path pose `base` moved by the stress
+    /// knobs (`derived_offset` in its camera frame, then `derived_roll_deg`
+    /// about its view axis). Equal to `base` at the defaults.
+    pub fn derived_pose(&self, base: Pose) -> Pose {
+        if self.derived_offset == [0.0; 3] && self.derived_roll_deg == 0.0 {
+            return base;
+        }
+        let off = glam::DVec3::from_array(self.derived_offset);
+        let roll = glam::DQuat::from_rotation_z(self.derived_roll_deg.to_radians());
+        Pose { position: base.position + base.orientation * off, orientation: (base.orientation * roll).normalize() }
+    }
+
     /// Index of the reference frame at or before derived frame `k`.
     pub fn previous_reference(&self, k: usize) -> usize {
         // Exact when the rates divide: 30 Hz / 5 Hz gives 6 derived per reference.
         let r = k as f64 * self.ref_rate_hz / self.derived_rate_hz;
         (r + 1e-9).floor() as usize
+    }
+}
+
+/// Most bits of `depth_bits`.
+pub const MAX_DEPTH_BITS: u32 = 24;
+
+/// Quantise the finite positive depths of `depth` (1/z per sample is what
+/// the warper interpolates) to `bits` bits over their own 1/z range, to the
+/// nearest level; `bits == 0` leaves them exact. Infinite or non-positive
+/// depths (background) are kept.
+pub fn quantise_depth(depth: &mut [f32], bits: u32) {
+    if bits == 0 {
+        return;
+    }
+    let inv: Vec<f64> = depth.iter().filter(|d| d.is_finite() && **d > 0.0).map(|d| 1.0 / *d as f64).collect();
+    let lo = inv.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = inv.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !(hi > lo) {
+        return;
+    }
+    let levels = ((1u64 << bits) - 1) as f64;
+    for d in depth.iter_mut().filter(|d| d.is_finite() && **d > 0.0) {
+        let q = ((1.0 / *d as f64 - lo) / (hi - lo) * levels).round() / levels;
+        *d = (1.0 / (lo + q * (hi - lo))) as f32;
     }
 }
 
@@ -229,13 +286,14 @@ pub fn make_trace_with(
         let t = j as f64 / spec.ref_rate_hz;
         let pose = predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s);
         let cam = Camera { intrinsics: ref_k, pose };
-        let img = scene.render(&cam, ss);
+        let mut img = scene.render(&cam, ss);
+        quantise_depth(&mut img.z, spec.depth_bits);
         w.add_reference(t, cam, &img, SlopeSource::Exact).with_context(|| format!("writing reference {j}"))?;
         bar.inc(1);
     }
     for k in 0..spec.frames {
         let t = k as f64 / spec.derived_rate_hz;
-        let cam = Camera { intrinsics: display, pose: path.pose(spec.start_s + t) };
+        let cam = Camera { intrinsics: display, pose: spec.derived_pose(path.pose(spec.start_s + t)) };
         let prev = spec.previous_reference(k);
         let truth = if spec.truth {
             let img = scene.render(&cam, ss);
@@ -276,12 +334,14 @@ pub fn frame_in_memory(
         })
         .collect();
     let t = k as f64 / spec.derived_rate_hz;
-    let derived = Camera { intrinsics: spec.display_intrinsics(), pose: path.pose(spec.start_s + t) };
+    let derived =
+        Camera { intrinsics: spec.display_intrinsics(), pose: spec.derived_pose(path.pose(spec.start_s + t)) };
     let cmd = postwarp_rtl::FrameCommands::new(k, derived, ss, &cams);
     let refs = cams
         .iter()
         .map(|(_, cam)| {
             let mut img = scene.render(cam, ss);
+            quantise_depth(&mut img.z, spec.depth_bits);
             for c in img.colour.iter_mut().flatten() {
                 *c = exr::prelude::f16::from_f32(*c).to_f32();
             }
