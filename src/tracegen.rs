@@ -71,6 +71,10 @@ pub struct TraceSpec {
     /// Stress: roll of every derived camera about its view axis, relative to
     /// its path pose (degrees, clockwise on screen). Default 0.
     pub derived_roll_deg: f64,
+    /// Stress: every camera of the path, references and derived, moved up
+    /// along world y (scene units; negative = down, towards a floor at y =
+    /// 0). Default 0.
+    pub path_offset_y: f64,
     /// Stress: quantise reference depth (1/z) to this many bits over the
     /// reference's own 1/z range (0 = exact, the default; 1 to 24 bits).
     pub depth_bits: u32,
@@ -94,6 +98,7 @@ impl Default for TraceSpec {
             derived_offset: [0.0; 3],
             derived_roll_deg: 0.0,
             depth_bits: 0,
+            path_offset_y: 0.0,
         }
     }
 }
@@ -132,6 +137,9 @@ impl TraceSpec {
         }
         if !self.derived_offset.iter().all(|v| v.is_finite()) {
             bail!("derived_offset {:?}: expected finite scene units", self.derived_offset);
+        }
+        if !self.path_offset_y.is_finite() {
+            bail!("path_offset_y {}: expected finite scene units", self.path_offset_y);
         }
         if !(self.derived_roll_deg.is_finite() && self.derived_roll_deg.abs() <= 180.0) {
             bail!("derived_roll {}: expected degrees in [-180, 180]", self.derived_roll_deg);
@@ -172,15 +180,23 @@ impl TraceSpec {
     }
 
     /// The derived camera's pose: the path pose `base` moved by the stress
-    /// knobs (`derived_offset` in its camera frame, then `derived_roll_deg`
+    /// knobs (`path_offset_y`, then `derived_offset` in its camera frame, then `derived_roll_deg`
     /// about its view axis). Equal to `base` at the defaults.
     pub fn derived_pose(&self, base: Pose) -> Pose {
+        let base = self.path_pose(base);
         if self.derived_offset == [0.0; 3] && self.derived_roll_deg == 0.0 {
             return base;
         }
         let off = glam::DVec3::from_array(self.derived_offset);
         let roll = glam::DQuat::from_rotation_z(self.derived_roll_deg.to_radians());
         Pose { position: base.position + base.orientation * off, orientation: (base.orientation * roll).normalize() }
+    }
+
+    /// A camera pose on the path moved by `path_offset_y` (references and
+    /// derived cameras alike).
+    pub fn path_pose(&self, mut p: Pose) -> Pose {
+        p.position.y += self.path_offset_y;
+        p
     }
 
     /// Index of the reference frame at or before derived frame `k`.
@@ -284,7 +300,7 @@ pub fn make_trace_with(
     let bar = if progress { crate::progress::bar(steps, "rendering") } else { indicatif::ProgressBar::hidden() };
     for j in 0..n_refs {
         let t = j as f64 / spec.ref_rate_hz;
-        let pose = predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s);
+        let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
         let cam = Camera { intrinsics: ref_k, pose };
         let mut img = scene.render(&cam, ss);
         quantise_depth(&mut img.z, spec.depth_bits);
@@ -330,7 +346,8 @@ pub fn frame_in_memory(
         .into_iter()
         .map(|j| {
             let t = j as f64 / spec.ref_rate_hz;
-            (j, Camera { intrinsics: ref_k, pose: predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s) })
+            let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
+            (j, Camera { intrinsics: ref_k, pose })
         })
         .collect();
     let t = k as f64 / spec.derived_rate_hz;

@@ -33,7 +33,7 @@ const EXTREMES: &[(&str, &str, &str)] = &[
     ("forward", "room", "derived_offset_z = 1.0"),
     ("backward", "room", "derived_offset_z = -1.0"),
     ("prediction", "room", "prediction = 1.6"),
-    ("grazing", "slants", "derived_offset_y = 1.5"),
+    ("grazing", "slants", "path_offset_y = -1.55"),
     ("depth-bits", "slants", "depth_bits = 4"),
 ];
 

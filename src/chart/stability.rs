@@ -11,9 +11,10 @@
 //! 3. Threshold: luma PSNR [`THRESHOLD_DB`] = 25 dB, a horizontal dashed
 //!    line. Failure ([`failure_points`]): the *unstressed* value is the
 //!    first value of the axis in the CSV (the specification lists the
-//!    least-stressed value first); on each side of it, the method fails at
-//!    the value nearest to it whose PSNR is below the threshold. Failures
-//!    are ringed in black with a cross, and the legend lists them.
+//!    unstressed value first, then increasing stress); on each side of it,
+//!    the method fails at the first listed value whose PSNR is below the
+//!    threshold. Failures are ringed in black, and the legend lists them
+//!    ("below unstressed" when the unstressed point is already below).
 
 use super::font::{self, FAMILY};
 use super::scatter::{HEIGHT, WIDTH, tick};
@@ -55,27 +56,21 @@ pub struct StressSeries {
 }
 
 /// Where a method fails (module rule 3): `points` are `(stress, quality)`
-/// in axis order, the first being the unstressed value `x0`. Returns, for
-/// the side below `x0` and then the side above, the stress nearest `x0`
-/// whose quality is below `threshold` (NaN counts as below: nothing
-/// usable); and `x0` itself alone if it is already below.
+/// in axis order as the specification lists it, the first being the
+/// unstressed value `x0`. Returns, for the side below `x0` and then the
+/// side above, the first value in that order whose quality is below
+/// `threshold` (NaN counts as below: nothing usable); or `x0` alone if it
+/// is already below.
 pub fn failure_points(points: &[(f64, f64)], threshold: f64) -> Vec<f64> {
     let Some(&(x0, y0)) = points.first() else { return Vec::new() };
     let below = |y: f64| y.is_nan() || y < threshold;
     if below(y0) {
         return vec![x0];
     }
-    let mut out = Vec::new();
-    for side in [-1.0, 1.0] {
-        let hit = points
-            .iter()
-            .filter(|p| (p.0 - x0) * side > 0.0 && below(p.1))
-            .min_by(|a, b| (a.0 - x0).abs().total_cmp(&(b.0 - x0).abs()));
-        if let Some(p) = hit {
-            out.push(p.0);
-        }
-    }
-    out
+    [-1.0, 1.0]
+        .into_iter()
+        .filter_map(|side| points.iter().find(|p| (p.0 - x0) * side > 0.0 && below(p.1)).map(|p| p.0))
+        .collect()
 }
 
 /// The stress column of a parsed CSV (module rule 1), or `None`.
@@ -177,8 +172,11 @@ fn e<E: std::fmt::Display>(err: E) -> String {
 }
 
 fn failure_text(s: &StressSeries) -> String {
+    let x0 = s.points.first().map(|p| p.0);
     if s.failures.is_empty() {
         "holds".into()
+    } else if s.failures.first().copied() == x0 {
+        format!("below unstressed ({})", tick(x0.unwrap_or(0.0)))
     } else {
         let v: Vec<String> = s.failures.iter().map(|x| tick(*x)).collect();
         format!("fails at {}", v.join(", "))
@@ -252,15 +250,12 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &StressChart) -> D
         for p in &line {
             draw_marker(root, area.map_coordinate(p), MARKER, shape, colour).map_err(e)?;
         }
+    }
+    for ser in &s.series {
         for x in &ser.failures {
-            if let Some(p) = line.iter().find(|p| p.0 == *x) {
+            if let Some(p) = ser.points.iter().find(|p| p.0 == *x && p.1.is_finite()) {
                 let c = area.map_coordinate(p);
                 root.draw(&Circle::new(c, MARKER + 5, BLACK.stroke_width(2))).map_err(e)?;
-                let r = MARKER + 3;
-                root.draw(&PathElement::new(vec![(c.0 - r, c.1 - r), (c.0 + r, c.1 + r)], BLACK.stroke_width(1)))
-                    .map_err(e)?;
-                root.draw(&PathElement::new(vec![(c.0 - r, c.1 + r), (c.0 + r, c.1 - r)], BLACK.stroke_width(1)))
-                    .map_err(e)?;
             }
         }
     }
@@ -324,8 +319,11 @@ mod tests {
         assert_eq!(failure_points(&p, 25.0), vec![-1.0, 1.0]);
         assert_eq!(failure_points(&p[..3], 23.0), Vec::<f64>::new(), "holds");
         assert_eq!(failure_points(&[(16.0, 24.0), (8.0, 30.0)], 25.0), vec![16.0], "below at the baseline");
-        // Not monotone: the nearest failure counts even if it recovers later.
+        // Not monotone: the first failure counts even if it recovers later.
         assert_eq!(failure_points(&[(0.0, 30.0), (1.0, 20.0), (2.0, 26.0)], 25.0), vec![1.0]);
+        // Listed order, not distance: depth bits 0 (exact), 24, 16, 8, 4.
+        let bits = [(0.0, 30.0), (24.0, 30.0), (16.0, 29.0), (8.0, 24.0), (4.0, 20.0)];
+        assert_eq!(failure_points(&bits, 25.0), vec![8.0]);
         assert!(failure_points(&[], 25.0).is_empty());
     }
 

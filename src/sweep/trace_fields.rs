@@ -46,6 +46,12 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
         "derived_roll_deg",
     ),
     (
+        "path_offset_y",
+        "scene units",
+        "stress: every camera (references and derived) moved up along world y",
+        "path_offset_y_units",
+    ),
+    (
         "depth_bits",
         "bits",
         "stress: reference depth (1/z) quantised to this many bits, 0 = exact (0 to 24)",
@@ -57,7 +63,7 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
 /// trace's identity only when not at their default, so traces made before
 /// they existed keep their directories.
 pub const STRESS_FIELDS: &[&str] =
-    &["derived_offset_x", "derived_offset_y", "derived_offset_z", "derived_roll", "depth_bits"];
+    &["derived_offset_x", "derived_offset_y", "derived_offset_z", "derived_roll", "path_offset_y", "depth_bits"];
 
 fn whole(v: &toml::Value, lo: u64, hi: u64, unit: &str) -> Result<u64, String> {
     match v.as_integer() {
@@ -103,6 +109,7 @@ pub fn set(spec: &mut TraceSpec, key: &str, v: &toml::Value) -> Result<(), Strin
         "derived_offset_y" => spec.derived_offset[1] = in_range(v, |_| true, "a finite number of scene units")?,
         "derived_offset_z" => spec.derived_offset[2] = in_range(v, |_| true, "a finite number of scene units")?,
         "derived_roll" => spec.derived_roll_deg = in_range(v, |x| x.abs() <= 180.0, "degrees in [-180, 180]")?,
+        "path_offset_y" => spec.path_offset_y = in_range(v, |_| true, "a finite number of scene units")?,
         "depth_bits" => {
             spec.depth_bits = whole(v, 0, crate::tracegen::MAX_DEPTH_BITS.into(), "bits")? as u32;
         }
@@ -134,6 +141,7 @@ pub fn get(spec: &TraceSpec, key: &str) -> String {
         "derived_offset_y" => spec.derived_offset[1].to_string(),
         "derived_offset_z" => spec.derived_offset[2].to_string(),
         "derived_roll" => spec.derived_roll_deg.to_string(),
+        "path_offset_y" => spec.path_offset_y.to_string(),
         "depth_bits" => spec.depth_bits.to_string(),
         _ => String::new(),
     }
@@ -169,10 +177,14 @@ mod tests {
             };
             assert_eq!(real(&back).ok(), real(&v).ok(), "{k}");
         }
-        assert_eq!(TRACE_FIELDS.len(), 18);
-        for (k, v) in
-            [("derived_offset_x", 0.5), ("derived_offset_z", -1.0), ("derived_roll", 30.0), ("depth_bits", 8.0)]
-        {
+        assert_eq!(TRACE_FIELDS.len(), 19);
+        for (k, v) in [
+            ("derived_offset_x", 0.5),
+            ("derived_offset_z", -1.0),
+            ("derived_roll", 30.0),
+            ("path_offset_y", -1.0),
+            ("depth_bits", 8.0),
+        ] {
             let val = if k == "depth_bits" { toml::Value::Integer(v as i64) } else { toml::Value::Float(v) };
             set(&mut s, k, &val).unwrap();
             assert_eq!(get(&s, k).parse::<f64>().unwrap(), v, "{k}");
