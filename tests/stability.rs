@@ -30,11 +30,11 @@ fn sweep(spec_text: &str, dir: &Path) -> Vec<Vec<String>> {
 const EXTREMES: &[(&str, &str, &str)] = &[
     ("distance", "room", "derived_offset_x = 1.6"),
     ("roll", "room", "derived_roll = 90.0"),
-    ("forward", "room", "derived_offset_z = 1.0"),
-    ("backward", "room", "derived_offset_z = -1.0"),
-    ("prediction", "room", "prediction = 1.6"),
+    ("forward", "room", "derived_offset_z = 1.5"),
+    ("backward", "room", "derived_offset_z = -0.3"),
+    ("prediction", "room", "prediction = 2.0"),
     ("grazing", "slants", "path_offset_y = -1.55"),
-    ("depth-bits", "slants", "depth_bits = 4"),
+    ("depth-bits", "slants", "depth_bits = 2"),
 ];
 
 #[test]

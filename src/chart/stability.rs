@@ -281,9 +281,9 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &StressChart) -> D
         .map_err(e)?;
     y += 26;
     legend.draw(&Circle::new((x0 + 8, y), MARKER + 5, BLACK.stroke_width(2))).map_err(e)?;
-    legend.draw(&Text::new("first value below it", (x0 + 30, y - 8), style.clone())).map_err(e)?;
-    legend.draw(&Text::new("(nearest the unstressed value,", (x0, y + 18), small.clone())).map_err(e)?;
-    legend.draw(&Text::new("the axis' first, on each side)", (x0, y + 34), small)).map_err(e)?;
+    legend.draw(&Text::new("failure: the first value below", (x0 + 30, y - 8), style.clone())).map_err(e)?;
+    legend.draw(&Text::new("the threshold on each side of the", (x0 + 30, y + 8), small.clone())).map_err(e)?;
+    legend.draw(&Text::new("unstressed value (the axis' first)", (x0 + 30, y + 24), small)).map_err(e)?;
     Ok(())
 }
 
