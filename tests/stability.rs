@@ -115,3 +115,34 @@ fn bad_stress_values_are_refused_with_the_key() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("derived_roll[1]") && err.contains("[-180, 180]"), "{err}");
 }
+
+#[test]
+fn committed_stability_charts_are_postwarp_chart_output() {
+    let d = tempfile::tempdir().unwrap();
+    let committed = root().join("docs/charts/stability");
+    let mut n = 0;
+    for e in std::fs::read_dir(root().join("docs/results")).unwrap() {
+        let csv_path = e.unwrap().path();
+        let name = csv_path.file_name().unwrap().to_string_lossy().into_owned();
+        if !name.starts_with("stability-") {
+            continue;
+        }
+        let out = d.path().join(&name);
+        let o = postwarp(&["chart", csv_path.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        for f in std::fs::read_dir(&out).unwrap() {
+            let f = f.unwrap().path();
+            let file = f.file_name().unwrap().to_string_lossy().into_owned();
+            if !file.starts_with("stability.") {
+                continue;
+            }
+            n += 1;
+            assert_eq!(
+                std::fs::read(&f).unwrap(),
+                std::fs::read(committed.join(&file)).unwrap_or_default(),
+                "run: postwarp chart docs/results/{name} --out OUT and copy OUT/stability.* to docs/charts/stability/ ({file})"
+            );
+        }
+    }
+    assert_eq!(n, std::fs::read_dir(&committed).unwrap().count(), "a committed chart no CSV gives");
+}
