@@ -221,7 +221,7 @@ pub fn quantise_depth(depth: &mut [f32], bits: u32) {
     let inv: Vec<f64> = depth.iter().filter(|d| d.is_finite() && **d > 0.0).map(|d| 1.0 / *d as f64).collect();
     let lo = inv.iter().copied().fold(f64::INFINITY, f64::min);
     let hi = inv.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if !(hi > lo) {
+    if !lo.is_finite() || hi <= lo {
         return;
     }
     let levels = ((1u64 << bits) - 1) as f64;
@@ -389,6 +389,42 @@ mod tests {
         assert_eq!(s.previous_reference(5), 0);
         assert_eq!(s.previous_reference(6), 1);
         assert_eq!(s.previous_reference(13), 2);
+    }
+
+    #[test]
+    fn stress_knobs_move_the_derived_camera_in_its_own_frame() {
+        let base = Pose::look_at(glam::DVec3::new(1.0, 2.0, 3.0), glam::DVec3::new(1.0, 2.0, 0.0), glam::DVec3::Y);
+        let s = TraceSpec::default();
+        assert_eq!(s.derived_pose(base), base);
+        // Looking down -z with y up: camera x is world +x... or -x; 0.5 along it.
+        let s = TraceSpec { derived_offset: [0.5, 0.0, 1.0], path_offset_y: -1.0, ..TraceSpec::default() };
+        let p = s.derived_pose(base);
+        let d = p.position - base.position;
+        assert!(
+            (d - (base.orientation * glam::DVec3::new(0.5, 0.0, 1.0) + glam::DVec3::new(0.0, -1.0, 0.0))).length()
+                < 1e-12
+        );
+        assert!((d.z + 1.0).abs() < 1e-12, "forward is -z here: {d}");
+        let s = TraceSpec { derived_roll_deg: 90.0, ..TraceSpec::default() };
+        let r = s.derived_pose(base).orientation * glam::DVec3::X;
+        assert!((r - base.orientation * glam::DVec3::Y).length() < 1e-12, "camera x turns to the old camera y");
+        assert!(TraceSpec { derived_roll_deg: 181.0, ..TraceSpec::default() }.validate().is_err());
+        assert!(TraceSpec { depth_bits: 25, ..TraceSpec::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn depth_quantisation_has_at_most_2_to_the_bits_levels_in_inverse_depth() {
+        let mut z: Vec<f32> = (1..=1000).map(|i| i as f32 * 0.1).chain([f32::INFINITY, 0.0]).collect();
+        let exact = z.clone();
+        quantise_depth(&mut z, 0);
+        assert_eq!(z, exact);
+        quantise_depth(&mut z, 3);
+        let mut levels: Vec<u32> = z[..1000].iter().map(|d| (1.0 / d).to_bits()).collect();
+        levels.sort();
+        levels.dedup();
+        assert!(levels.len() <= 8, "{}", levels.len());
+        assert_eq!(&z[1000..], &[f32::INFINITY, 0.0], "background kept");
+        assert!((z[0] - 0.1).abs() < 1e-6 && (z[999] - 100.0).abs() < 1e-3, "the range's ends are levels");
     }
 
     #[test]
