@@ -65,6 +65,19 @@ pub struct TraceSpec {
     pub start_s: f64,
     /// Render ground truth for every derived frame.
     pub truth: bool,
+    /// Stress: offset of every derived camera from its path pose, in its own
+    /// camera frame (x right, y down, z forward; scene units). Default 0.
+    pub derived_offset: [f64; 3],
+    /// Stress: roll of every derived camera about its view axis, relative to
+    /// its path pose (degrees, clockwise on screen). Default 0.
+    pub derived_roll_deg: f64,
+    /// Stress: every camera of the path, references and derived, moved up
+    /// along world y (scene units; negative = down, towards a floor at y =
+    /// 0). Default 0.
+    pub path_offset_y: f64,
+    /// Stress: quantise reference depth (1/z) to this many bits over the
+    /// reference's own 1/z range (0 = exact, the default; 1 to 24 bits).
+    pub depth_bits: u32,
 }
 
 impl Default for TraceSpec {
@@ -82,6 +95,10 @@ impl Default for TraceSpec {
             prediction_s: 0.4,
             start_s: 0.5,
             truth: true,
+            derived_offset: [0.0; 3],
+            derived_roll_deg: 0.0,
+            depth_bits: 0,
+            path_offset_y: 0.0,
         }
     }
 }
@@ -118,6 +135,18 @@ impl TraceSpec {
         if !(self.start_s.is_finite() && self.start_s >= 0.0) {
             bail!("--start {}: expected seconds >= 0", self.start_s);
         }
+        if !self.derived_offset.iter().all(|v| v.is_finite()) {
+            bail!("derived_offset {:?}: expected finite scene units", self.derived_offset);
+        }
+        if !self.path_offset_y.is_finite() {
+            bail!("path_offset_y {}: expected finite scene units", self.path_offset_y);
+        }
+        if !(self.derived_roll_deg.is_finite() && self.derived_roll_deg.abs() <= 180.0) {
+            bail!("derived_roll {}: expected degrees in [-180, 180]", self.derived_roll_deg);
+        }
+        if self.depth_bits > MAX_DEPTH_BITS {
+            bail!("depth_bits {}: expected 0 (exact) to {MAX_DEPTH_BITS}", self.depth_bits);
+        }
         // As `make_trace` counts them, in f64 so that no ratio overflows.
         let refs = ((self.frames - 1) as f64 * self.ref_rate_hz / self.derived_rate_hz + 1e-9).floor() + 2.0;
         if refs.is_nan() || refs > MAX_REFERENCE_FRAMES as f64 {
@@ -150,11 +179,55 @@ impl TraceSpec {
         Ok(Intrinsics { width: w, height: h, fx: f, fy: f, cx: 0.5 * (w as f64 - 1.0), cy: 0.5 * (h as f64 - 1.0) })
     }
 
+    /// The derived camera's pose: the path pose `base` moved by the stress
+    /// knobs (`path_offset_y`, then `derived_offset` in its camera frame, then `derived_roll_deg`
+    /// about its view axis). Equal to `base` at the defaults.
+    pub fn derived_pose(&self, base: Pose) -> Pose {
+        let base = self.path_pose(base);
+        if self.derived_offset == [0.0; 3] && self.derived_roll_deg == 0.0 {
+            return base;
+        }
+        let off = glam::DVec3::from_array(self.derived_offset);
+        let roll = glam::DQuat::from_rotation_z(self.derived_roll_deg.to_radians());
+        Pose { position: base.position + base.orientation * off, orientation: (base.orientation * roll).normalize() }
+    }
+
+    /// A camera pose on the path moved by `path_offset_y` (references and
+    /// derived cameras alike).
+    pub fn path_pose(&self, mut p: Pose) -> Pose {
+        p.position.y += self.path_offset_y;
+        p
+    }
+
     /// Index of the reference frame at or before derived frame `k`.
     pub fn previous_reference(&self, k: usize) -> usize {
         // Exact when the rates divide: 30 Hz / 5 Hz gives 6 derived per reference.
         let r = k as f64 * self.ref_rate_hz / self.derived_rate_hz;
         (r + 1e-9).floor() as usize
+    }
+}
+
+/// Most bits of `depth_bits`.
+pub const MAX_DEPTH_BITS: u32 = 24;
+
+/// Quantise the finite positive depths of `depth` (1/z per sample is what
+/// the warper interpolates) to `bits` bits over their own 1/z range, to the
+/// nearest level; `bits == 0` leaves them exact. Infinite or non-positive
+/// depths (background) are kept.
+pub fn quantise_depth(depth: &mut [f32], bits: u32) {
+    if bits == 0 {
+        return;
+    }
+    let inv: Vec<f64> = depth.iter().filter(|d| d.is_finite() && **d > 0.0).map(|d| 1.0 / *d as f64).collect();
+    let lo = inv.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = inv.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if !lo.is_finite() || hi <= lo {
+        return;
+    }
+    let levels = ((1u64 << bits) - 1) as f64;
+    for d in depth.iter_mut().filter(|d| d.is_finite() && **d > 0.0) {
+        let q = ((1.0 / *d as f64 - lo) / (hi - lo) * levels).round() / levels;
+        *d = (1.0 / (lo + q * (hi - lo))) as f32;
     }
 }
 
@@ -227,15 +300,16 @@ pub fn make_trace_with(
     let bar = if progress { crate::progress::bar(steps, "rendering") } else { indicatif::ProgressBar::hidden() };
     for j in 0..n_refs {
         let t = j as f64 / spec.ref_rate_hz;
-        let pose = predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s);
+        let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
         let cam = Camera { intrinsics: ref_k, pose };
-        let img = scene.render(&cam, ss);
+        let mut img = scene.render(&cam, ss);
+        quantise_depth(&mut img.z, spec.depth_bits);
         w.add_reference(t, cam, &img, SlopeSource::Exact).with_context(|| format!("writing reference {j}"))?;
         bar.inc(1);
     }
     for k in 0..spec.frames {
         let t = k as f64 / spec.derived_rate_hz;
-        let cam = Camera { intrinsics: display, pose: path.pose(spec.start_s + t) };
+        let cam = Camera { intrinsics: display, pose: spec.derived_pose(path.pose(spec.start_s + t)) };
         let prev = spec.previous_reference(k);
         let truth = if spec.truth {
             let img = scene.render(&cam, ss);
@@ -272,16 +346,19 @@ pub fn frame_in_memory(
         .into_iter()
         .map(|j| {
             let t = j as f64 / spec.ref_rate_hz;
-            (j, Camera { intrinsics: ref_k, pose: predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s) })
+            let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
+            (j, Camera { intrinsics: ref_k, pose })
         })
         .collect();
     let t = k as f64 / spec.derived_rate_hz;
-    let derived = Camera { intrinsics: spec.display_intrinsics(), pose: path.pose(spec.start_s + t) };
+    let derived =
+        Camera { intrinsics: spec.display_intrinsics(), pose: spec.derived_pose(path.pose(spec.start_s + t)) };
     let cmd = postwarp_rtl::FrameCommands::new(k, derived, ss, &cams);
     let refs = cams
         .iter()
         .map(|(_, cam)| {
             let mut img = scene.render(cam, ss);
+            quantise_depth(&mut img.z, spec.depth_bits);
             for c in img.colour.iter_mut().flatten() {
                 *c = exr::prelude::f16::from_f32(*c).to_f32();
             }
@@ -312,6 +389,42 @@ mod tests {
         assert_eq!(s.previous_reference(5), 0);
         assert_eq!(s.previous_reference(6), 1);
         assert_eq!(s.previous_reference(13), 2);
+    }
+
+    #[test]
+    fn stress_knobs_move_the_derived_camera_in_its_own_frame() {
+        let base = Pose::look_at(glam::DVec3::new(1.0, 2.0, 3.0), glam::DVec3::new(1.0, 2.0, 0.0), glam::DVec3::Y);
+        let s = TraceSpec::default();
+        assert_eq!(s.derived_pose(base), base);
+        // Looking down -z with y up: camera x is world +x... or -x; 0.5 along it.
+        let s = TraceSpec { derived_offset: [0.5, 0.0, 1.0], path_offset_y: -1.0, ..TraceSpec::default() };
+        let p = s.derived_pose(base);
+        let d = p.position - base.position;
+        assert!(
+            (d - (base.orientation * glam::DVec3::new(0.5, 0.0, 1.0) + glam::DVec3::new(0.0, -1.0, 0.0))).length()
+                < 1e-12
+        );
+        assert!((d.z + 1.0).abs() < 1e-12, "forward is -z here: {d}");
+        let s = TraceSpec { derived_roll_deg: 90.0, ..TraceSpec::default() };
+        let r = s.derived_pose(base).orientation * glam::DVec3::X;
+        assert!((r - base.orientation * glam::DVec3::Y).length() < 1e-12, "camera x turns to the old camera y");
+        assert!(TraceSpec { derived_roll_deg: 181.0, ..TraceSpec::default() }.validate().is_err());
+        assert!(TraceSpec { depth_bits: 25, ..TraceSpec::default() }.validate().is_err());
+    }
+
+    #[test]
+    fn depth_quantisation_has_at_most_2_to_the_bits_levels_in_inverse_depth() {
+        let mut z: Vec<f32> = (1..=1000).map(|i| i as f32 * 0.1).chain([f32::INFINITY, 0.0]).collect();
+        let exact = z.clone();
+        quantise_depth(&mut z, 0);
+        assert_eq!(z, exact);
+        quantise_depth(&mut z, 3);
+        let mut levels: Vec<u32> = z[..1000].iter().map(|d| (1.0 / d).to_bits()).collect();
+        levels.sort();
+        levels.dedup();
+        assert!(levels.len() <= 8, "{}", levels.len());
+        assert_eq!(&z[1000..], &[f32::INFINITY, 0.0], "background kept");
+        assert!((z[0] - 0.1).abs() < 1e-6 && (z[999] - 100.0).abs() < 1e-3, "the range's ends are levels");
     }
 
     #[test]

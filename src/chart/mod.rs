@@ -21,12 +21,16 @@
 //! 4. File names: `<trace>.<quality>-vs-<cost>.svg` / `.png`, the trace
 //!    label with characters other than letters, digits, `-`, `_`, `.`, `=`
 //!    replaced by `_`.
-//! 5. Same CSV, same bytes. Charts are written atomically; chart files of
+//! 5. A stress sweep (exactly one generated-trace column varies) also
+//!    gives stability charts of luma PSNR against that column, with each
+//!    method's failure point marked ([`stability`]).
+//! 6. Same CSV, same bytes. Charts are written atomically; chart files of
 //!    an earlier run that this CSV no longer gives are removed.
 
 pub mod font;
 pub mod pareto;
 pub mod scatter;
+pub mod stability;
 pub mod style;
 
 use anyhow::Context;
@@ -161,6 +165,19 @@ pub fn write_charts(csv: &str, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         .with_context(|| format!("writing {}", svg.display()))?;
         let png = dir.join(format!("{stem}.png"));
         crate::io_util::write_bytes_atomically(&png, &scatter::render_png(chart).map_err(anyhow::Error::msg)?)
+            .with_context(|| format!("writing {}", png.display()))?;
+        written.push(svg);
+        written.push(png);
+    }
+    for (stem, chart) in stability::stress_charts_from_csv(csv).map_err(anyhow::Error::msg)? {
+        let svg = dir.join(format!("{stem}.svg"));
+        crate::io_util::write_bytes_atomically(
+            &svg,
+            stability::render_svg(&chart).map_err(anyhow::Error::msg)?.as_bytes(),
+        )
+        .with_context(|| format!("writing {}", svg.display()))?;
+        let png = dir.join(format!("{stem}.png"));
+        crate::io_util::write_bytes_atomically(&png, &stability::render_png(&chart).map_err(anyhow::Error::msg)?)
             .with_context(|| format!("writing {}", png.display()))?;
         written.push(svg);
         written.push(png);

@@ -270,6 +270,12 @@ pub fn render_png(s: &Scatter) -> DrawResult<Vec<u8>> {
         draw(&root, s)?;
         root.present().map_err(e)?;
     }
+    encode_png(&rgb)
+}
+
+/// 8-bit RGB pixels of a [`WIDTH`]x[`HEIGHT`] chart as PNG bytes (best
+/// compression).
+pub fn encode_png(rgb: &[u8]) -> DrawResult<Vec<u8>> {
     let mut png = Vec::new();
     image::ImageEncoder::write_image(
         image::codecs::png::PngEncoder::new_with_quality(
@@ -277,7 +283,7 @@ pub fn render_png(s: &Scatter) -> DrawResult<Vec<u8>> {
             image::codecs::png::CompressionType::Best,
             image::codecs::png::FilterType::Adaptive,
         ),
-        &rgb,
+        rgb,
         WIDTH,
         HEIGHT,
         image::ExtendedColorType::Rgb8,

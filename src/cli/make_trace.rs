@@ -78,6 +78,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         prediction_s: a.prediction,
         start_s: a.start,
         truth: !a.no_truth,
+        ..TraceSpec::default()
     };
     let command = std::iter::once("postwarp".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
     let start = std::time::Instant::now();

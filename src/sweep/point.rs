@@ -105,6 +105,11 @@ pub struct Metrics {
     pub hole_fraction: Option<f64>,
     /// Mean primitives drawn per frame, CPU methods (primitives).
     pub primitives_per_frame: Option<f64>,
+    /// Mean rectangles per frame whose kernel exceeded `kernel_limit`
+    /// (clipped or split), for methods that count them (`mark-aa`,
+    /// `mark-general`) (rectangles).
+    #[serde(default)]
+    pub kernels_over_limit_per_frame: Option<f64>,
     /// Mean over frames of the median host time of `runs` runs, CPU
     /// methods (ms; not deterministic).
     pub host_ms_per_frame: Option<f64>,
@@ -136,6 +141,12 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
     ("flip_mean", "1", "mean LDR-FLIP (lower is better)", true),
     ("hole_fraction", "fraction", "mean share of known pixels not covered by a real sample", true),
     ("primitives_per_frame", "primitives", "mean primitives drawn per frame (CPU methods)", true),
+    (
+        "kernels_over_limit_per_frame",
+        "rectangles",
+        "mean rectangles per frame whose kernel exceeded kernel_limit (mark-aa, mark-general)",
+        true,
+    ),
     ("host_ms_per_frame", "ms", "mean over frames of the median host time of `runs` runs (CPU methods)", false),
     ("cycles_per_frame", "cycles", "mean engine cycles per frame (hardware)", true),
     ("dram_read_bytes_per_frame", "bytes", "mean DRAM bytes read per frame (hardware)", true),
@@ -150,6 +161,15 @@ fn num(v: &Value) -> Option<f64> {
     v.as_f64().filter(|x| x.is_finite())
 }
 
+/// Mean over a method report's frames of reconstruction counter `name`,
+/// if every frame has it.
+fn mean_counter(r: &Value, name: &str) -> Option<f64> {
+    let frames = r["frames"].as_array()?;
+    let v: Option<Vec<f64>> = frames.iter().map(|f| num(&f["reconstruction"][name])).collect();
+    let v = v?;
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
 impl Metrics {
     /// From a `postwarp golden --method` report.
     pub fn from_method_report(r: &Value) -> Metrics {
@@ -162,6 +182,7 @@ impl Metrics {
             hole_fraction: num(&m["hole_fraction"]),
             primitives_per_frame: num(&m["primitives"]),
             host_ms_per_frame: num(&m["host_ms"]),
+            kernels_over_limit_per_frame: mean_counter(r, "kernels_over_limit"),
             ..Metrics::default()
         }
     }

@@ -21,7 +21,49 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
     ("prediction", "s", "prediction interval of reference viewpoints", "prediction_s"),
     ("start", "s", "path time of the first derived frame", "start_s"),
     ("truth", "bool", "render ground truth (without it no quality is scored)", "truth"),
+    (
+        "derived_offset_x",
+        "scene units",
+        "stress: derived camera moved right of its path pose (camera x)",
+        "derived_offset_x_units",
+    ),
+    (
+        "derived_offset_y",
+        "scene units",
+        "stress: derived camera moved down from its path pose (camera y)",
+        "derived_offset_y_units",
+    ),
+    (
+        "derived_offset_z",
+        "scene units",
+        "stress: derived camera moved forward along its view axis (camera z)",
+        "derived_offset_z_units",
+    ),
+    (
+        "derived_roll",
+        "degrees",
+        "stress: derived camera rolled about its view axis, in [-180, 180]",
+        "derived_roll_deg",
+    ),
+    (
+        "path_offset_y",
+        "scene units",
+        "stress: every camera (references and derived) moved up along world y",
+        "path_offset_y_units",
+    ),
+    (
+        "depth_bits",
+        "bits",
+        "stress: reference depth (1/z) quantised to this many bits, 0 = exact (0 to 24)",
+        "depth_bits",
+    ),
 ];
+
+/// The stress keys (the last of [`TRACE_FIELDS`]): hashed into a generated
+/// trace's identity only when not at their default, so traces made before
+/// they existed keep their directories.
+pub const STRESS_FIELDS: &[&str] =
+    &["derived_offset_x", "derived_offset_y", "derived_offset_z", "derived_roll", "path_offset_y", "depth_bits"];
 
 fn whole(v: &toml::Value, lo: u64, hi: u64, unit: &str) -> Result<u64, String> {
     match v.as_integer() {
@@ -63,6 +105,14 @@ pub fn set(spec: &mut TraceSpec, key: &str, v: &toml::Value) -> Result<(), Strin
         "prediction" => spec.prediction_s = in_range(v, |x| x >= 0.0, "seconds >= 0")?,
         "start" => spec.start_s = in_range(v, |x| x >= 0.0, "seconds >= 0")?,
         "truth" => spec.truth = v.as_bool().ok_or_else(|| format!("expected true or false, got {v}"))?,
+        "derived_offset_x" => spec.derived_offset[0] = in_range(v, |_| true, "a finite number of scene units")?,
+        "derived_offset_y" => spec.derived_offset[1] = in_range(v, |_| true, "a finite number of scene units")?,
+        "derived_offset_z" => spec.derived_offset[2] = in_range(v, |_| true, "a finite number of scene units")?,
+        "derived_roll" => spec.derived_roll_deg = in_range(v, |x| x.abs() <= 180.0, "degrees in [-180, 180]")?,
+        "path_offset_y" => spec.path_offset_y = in_range(v, |_| true, "a finite number of scene units")?,
+        "depth_bits" => {
+            spec.depth_bits = whole(v, 0, crate::tracegen::MAX_DEPTH_BITS.into(), "bits")? as u32;
+        }
         _ => return Err("not a trace field".into()),
     }
     Ok(())
@@ -87,6 +137,12 @@ pub fn get(spec: &TraceSpec, key: &str) -> String {
         "prediction" => spec.prediction_s.to_string(),
         "start" => spec.start_s.to_string(),
         "truth" => spec.truth.to_string(),
+        "derived_offset_x" => spec.derived_offset[0].to_string(),
+        "derived_offset_y" => spec.derived_offset[1].to_string(),
+        "derived_offset_z" => spec.derived_offset[2].to_string(),
+        "derived_roll" => spec.derived_roll_deg.to_string(),
+        "path_offset_y" => spec.path_offset_y.to_string(),
+        "depth_bits" => spec.depth_bits.to_string(),
         _ => String::new(),
     }
 }
@@ -121,7 +177,20 @@ mod tests {
             };
             assert_eq!(real(&back).ok(), real(&v).ok(), "{k}");
         }
-        assert_eq!(TRACE_FIELDS.len(), 13);
+        assert_eq!(TRACE_FIELDS.len(), 19);
+        for (k, v) in [
+            ("derived_offset_x", 0.5),
+            ("derived_offset_z", -1.0),
+            ("derived_roll", 30.0),
+            ("path_offset_y", -1.0),
+            ("depth_bits", 8.0),
+        ] {
+            let val = if k == "depth_bits" { toml::Value::Integer(v as i64) } else { toml::Value::Float(v) };
+            set(&mut s, k, &val).unwrap();
+            assert_eq!(get(&s, k).parse::<f64>().unwrap(), v, "{k}");
+        }
+        assert!(set(&mut s, "derived_roll", &toml::Value::Float(181.0)).unwrap_err().contains("[-180, 180]"));
+        assert!(set(&mut s, "depth_bits", &toml::Value::Integer(25)).unwrap_err().contains("0 to 24"));
         assert!(s.validate().is_ok());
         assert!(set(&mut s, "width", &toml::Value::Integer(0)).unwrap_err().contains("pixels"));
         assert!(set(&mut s, "supersample", &toml::Value::Integer(5)).unwrap_err().contains("1 to 4"));

@@ -199,9 +199,14 @@ pub fn generated_hash(given: &str, file: Option<&Path>, spec: &TraceSpec) -> any
     h.field(b"postwarp sweep generated trace v1");
     h.field(given.as_bytes());
     h.field(scene_text(given, file)?.as_bytes());
+    let default = TraceSpec::default();
     for (k, _, _, _) in TRACE_FIELDS {
+        let v = trace_fields::get(spec, k);
+        if trace_fields::STRESS_FIELDS.contains(k) && v == trace_fields::get(&default, k) {
+            continue;
+        }
         h.field(k.as_bytes());
-        h.field(trace_fields::get(spec, k).as_bytes());
+        h.field(v.as_bytes());
     }
     Ok(h.hex())
 }
