@@ -6,9 +6,10 @@ mod compare;
 mod golden;
 mod import;
 mod info;
-mod make_trace;
+pub mod make_trace;
 mod methods;
 mod simulate;
+mod size;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -57,6 +58,11 @@ enum Command {
     /// results.csv (every parameter and metric) and quality-against-cost
     /// charts with their Pareto fronts.
     Sweep(sweep::Args),
+    /// Find the smallest hardware configuration (super-samples, A-buffer
+    /// fragments per pixel, destination cache, tile size) whose output
+    /// meets a quality floor, and report its cycles and DRAM bandwidth
+    /// (docs/size.md).
+    Size(size::Args),
     /// Draw the charts of a sweep's results.csv again (same CSV, same
     /// bytes).
     Chart(chart::Args),
@@ -85,6 +91,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Methods(a) => methods::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Sweep(a) => sweep::run(a),
+        Command::Size(a) => size::run(a),
         Command::Chart(a) => chart::run(a),
     }
 }
