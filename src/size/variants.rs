@@ -126,10 +126,11 @@ pub fn ss_traces(path: &Path, frames: Option<usize>, out: &Path) -> anyhow::Resu
         let ready = materialize(&v, out)?;
         out_traces.push(SsTrace { supersample: ss, trace: ready.open()?, dir: ready.dir });
     }
-    // Rule 3: one ground truth for every super-sampling.
+    // Rule 3: one ground truth for every super-sampling (an absolute path,
+    // since each trace joins it to its own directory).
     let (hi_dir, hi_truth): (PathBuf, Vec<Option<PathBuf>>) = {
         let hi = out_traces.last().expect("SUPERSAMPLES is not empty");
-        (hi.trace.dir.clone(), hi.trace.derived.iter().map(|f| f.truth.clone()).collect())
+        (std::path::absolute(&hi.trace.dir)?, hi.trace.derived.iter().map(|f| f.truth.clone()).collect())
     };
     for t in &mut out_traces {
         for (f, truth) in t.trace.derived.iter_mut().zip(&hi_truth) {
