@@ -181,3 +181,14 @@ fn bad_flags_are_refused_clearly() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no/such/trace: no such trace"));
 }
+
+#[test]
+fn every_candidates_column_is_documented_with_its_unit() {
+    let doc = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/size.md")).unwrap();
+    for (name, unit, _) in postwarp::size::output::CSV_COLUMNS {
+        assert!(
+            doc.lines().any(|l| l.contains(&format!("| `{name}` |")) && l.contains(unit)),
+            "docs/size.md: no table row for `{name}` ({unit})"
+        );
+    }
+}

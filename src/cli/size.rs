@@ -5,17 +5,8 @@ use crate::size::{Floor, Options, output, size_and_write};
 use anyhow::bail;
 use std::path::PathBuf;
 
-/// Flags of `postwarp size`.
-///
-/// Smallest means: first the fewest super-samples, then the fewest A-buffer
-/// fragments per pixel (1 to 4; 0, no A-buffer, is not tried) whose mean
-/// luma PSNR (and SSIM) over the frames meets the floor; then, for each
-/// tile size of 4, 8, 16 samples, the smallest destination cache of 8, 16,
-/// 32, ... tiles with no capacity misses; the tile size with the fewest
-/// cache bytes wins (ties: fewer DRAM bytes). A trace made by `postwarp
-/// make-trace` is rendered again at 1, 2 and 4 super-samples; any other
-/// keeps its own. Exits non-zero, giving the best quality reached, if
-/// nothing meets the floor.
+/// Flags of `postwarp size` (the definition of smallest is the
+/// subcommand's help, `src/cli/mod.rs`, and `docs/size.md`).
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Trace directory (or its `postwarp.trace` manifest); needs ground truth.
