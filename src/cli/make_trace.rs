@@ -112,3 +112,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     eprintln!("wrote {} in {:.1} s", manifest.display(), start.elapsed().as_secs_f64());
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn made_by_lines_give_back_the_flags() {
+        let a = parse_made_by(
+            "postwarp make-trace --scene room --out traces/room --width 128 --height 96 --frames 6 --ref-fov 75x52",
+        )
+        .unwrap();
+        let s = a.spec();
+        assert_eq!((a.scene.as_str(), s.width, s.height, s.frames, s.supersample), ("room", 128, 96, 6, 2));
+        assert_eq!(s.ref_fov_deg, (75.0, 52.0));
+        assert!(parse_made_by("postwarp import-middlebury --in x --out y").is_none());
+        assert!(parse_made_by("postwarp make-trace --scene room --bogus 1").is_none());
+    }
+}
