@@ -20,6 +20,7 @@ pub mod progress;
 pub mod report;
 pub mod run;
 pub mod scene;
+pub mod size;
 pub mod sweep;
 pub mod trace;
 pub mod tracegen;

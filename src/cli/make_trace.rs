@@ -63,23 +63,48 @@ fn parse_fov(s: &str) -> Result<(f64, f64), String> {
     Ok((p(h)?, p(v)?))
 }
 
+impl Args {
+    /// The trace specification these flags describe.
+    pub fn spec(&self) -> TraceSpec {
+        TraceSpec {
+            width: self.width,
+            height: self.height,
+            supersample: self.supersample,
+            frames: self.frames,
+            path: self.path,
+            display_hfov_deg: self.display_hfov,
+            ref_fov_deg: self.ref_fov,
+            ref_rate_hz: self.ref_rate,
+            derived_rate_hz: self.derived_rate,
+            prediction_s: self.prediction,
+            start_s: self.start,
+            truth: !self.no_truth,
+            ..TraceSpec::default()
+        }
+    }
+}
+
+/// The `make-trace` flags of a command line as written in a trace's
+/// `note made by:` line (`postwarp make-trace --scene ...`), or `None` if
+/// it is not one or does not parse.
+pub fn parse_made_by(command: &str) -> Option<Args> {
+    #[derive(clap::Parser)]
+    struct Line {
+        #[command(flatten)]
+        args: Args,
+    }
+    use clap::Parser as _;
+    let words: Vec<&str> = command.split_whitespace().collect();
+    let rest = match words.as_slice() {
+        [p, "make-trace", rest @ ..] if p.ends_with("postwarp") => rest,
+        _ => return None,
+    };
+    Line::try_parse_from(std::iter::once("make-trace").chain(rest.iter().copied())).ok().map(|l| l.args)
+}
+
 pub fn run(a: Args) -> anyhow::Result<()> {
     let scene = Scene::load(&a.scene).with_context(|| format!("loading scene `{}`", a.scene))?;
-    let spec = TraceSpec {
-        width: a.width,
-        height: a.height,
-        supersample: a.supersample,
-        frames: a.frames,
-        path: a.path,
-        display_hfov_deg: a.display_hfov,
-        ref_fov_deg: a.ref_fov,
-        ref_rate_hz: a.ref_rate,
-        derived_rate_hz: a.derived_rate,
-        prediction_s: a.prediction,
-        start_s: a.start,
-        truth: !a.no_truth,
-        ..TraceSpec::default()
-    };
+    let spec = a.spec();
     let command = std::iter::once("postwarp".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
     let start = std::time::Instant::now();
     let manifest = make_trace(&scene, &spec, &a.out, &command)?;
@@ -87,4 +112,22 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     crate::cli::import::write_previews(&manifest)?;
     eprintln!("wrote {} in {:.1} s", manifest.display(), start.elapsed().as_secs_f64());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn made_by_lines_give_back_the_flags() {
+        let a = parse_made_by(
+            "postwarp make-trace --scene room --out traces/room --width 128 --height 96 --frames 6 --ref-fov 75x52",
+        )
+        .unwrap();
+        let s = a.spec();
+        assert_eq!((a.scene.as_str(), s.width, s.height, s.frames, s.supersample), ("room", 128, 96, 6, 2));
+        assert_eq!(s.ref_fov_deg, (75.0, 52.0));
+        assert!(parse_made_by("postwarp import-middlebury --in x --out y").is_none());
+        assert!(parse_made_by("postwarp make-trace --scene room --bogus 1").is_none());
+    }
 }

@@ -6,9 +6,10 @@ mod compare;
 mod golden;
 mod import;
 mod info;
-mod make_trace;
+pub mod make_trace;
 mod methods;
 mod simulate;
+mod size;
 mod sweep;
 
 use clap::{Parser, Subcommand};
@@ -57,6 +58,26 @@ enum Command {
     /// results.csv (every parameter and metric) and quality-against-cost
     /// charts with their Pareto fronts.
     Sweep(sweep::Args),
+    /// Find the smallest hardware configuration (super-samples, A-buffer
+    /// fragments per pixel, destination cache, tile size) whose output
+    /// meets a quality floor, and report its cycles and DRAM bandwidth
+    /// (docs/size.md).
+    ///
+    /// Smallest means: first the fewest super-samples (1, 2, 4), then the
+    /// fewest A-buffer fragments per pixel (1 to min(4, samples per pixel);
+    /// 0, no A-buffer, is not smaller hardware and is not tried) whose mean
+    /// luma PSNR (and SSIM, if given) over the frames meets the floor;
+    /// only these two change the image. Then, for each tile size of 4, 8
+    /// and 16 samples, the smallest destination cache of 8, 16, 32, ...
+    /// tiles (tile_size² x 16 B each) with no capacity misses over all
+    /// frames; the tile size whose cache has the fewest bytes wins (ties:
+    /// fewer DRAM bytes per frame, then the smaller tile). Other knobs are
+    /// the preset's. A trace made by `postwarp make-trace` is rendered
+    /// again at 1, 2 and 4 super-samples (into DIR/traces) and every one is
+    /// scored against the truth rendered at 4; any other trace keeps its
+    /// own. Exits non-zero, with the best quality reached, if nothing
+    /// meets the floor.
+    Size(size::Args),
     /// Draw the charts of a sweep's results.csv again (same CSV, same
     /// bytes).
     Chart(chart::Args),
@@ -85,6 +106,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Methods(a) => methods::run(a),
         Command::Compare(a) => compare::run(a),
         Command::Sweep(a) => sweep::run(a),
+        Command::Size(a) => size::run(a),
         Command::Chart(a) => chart::run(a),
     }
 }

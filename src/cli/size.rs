@@ -1,0 +1,62 @@
+//! `postwarp size`: the smallest hardware configuration meeting a quality
+//! floor (docs/size.md).
+
+use crate::size::{Floor, Options, output, size_and_write};
+use anyhow::bail;
+use std::path::PathBuf;
+
+/// Flags of `postwarp size` (the definition of smallest is the
+/// subcommand's help, `src/cli/mod.rs`, and `docs/size.md`).
+#[derive(clap::Args, Debug)]
+pub struct Args {
+    /// Trace directory (or its `postwarp.trace` manifest); needs ground truth.
+    pub trace: PathBuf,
+    /// Quality floor: least mean luma PSNR against ground truth (dB, >= 0).
+    #[arg(long, allow_negative_numbers = true)]
+    pub min_psnr: f64,
+    /// Also a least mean luma SSIM (0 to 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub min_ssim: Option<f64>,
+    /// Output directory: config.toml, size.json, candidates.csv, and
+    /// traces/ (traces rendered at other super-samplings, reused by later
+    /// runs). Without it those traces are cached in the system's
+    /// temporary directory (postwarp-size/traces/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Preset of every other knob: mark1998 (default) or hmd2026.
+    #[arg(long, default_value = "mark1998")]
+    pub preset: String,
+    /// Use the first N derived frames (frames).
+    #[arg(long)]
+    pub frames: Option<usize>,
+}
+
+pub fn run(a: Args) -> anyhow::Result<()> {
+    let floor = Floor { min_psnr_db: a.min_psnr, min_ssim: a.min_ssim };
+    floor.validate()?;
+    if !a.trace.exists() {
+        bail!("{}: no such trace (expected a trace directory or its postwarp.trace)", a.trace.display());
+    }
+    let cache_dir = a.out.clone().unwrap_or_else(|| std::env::temp_dir().join("postwarp-size"));
+    let o = Options { trace: a.trace, floor, preset: a.preset, frames: a.frames, cache_dir };
+    let r = size_and_write(&o, a.out.as_deref())?;
+    print!("{}", output::text(&r));
+    if let Some(d) = &a.out {
+        println!(
+            "files: {}",
+            ["config.toml", "size.json", "candidates.csv"].map(|f| d.join(f).display().to_string()).join(", ")
+        );
+    }
+    if r.chosen.is_none() {
+        let best = r.best_quality();
+        bail!(
+            "no configuration meets the floor ({}): the best mean luma PSNR reached is {:.3} dB (SSIM {:.4}) with supersample = {}, max_fragments = {}",
+            r.floor.describe(),
+            best.and_then(|b| b.psnr_luma_db).unwrap_or(f64::NAN),
+            best.and_then(|b| b.ssim_luma).unwrap_or(f64::NAN),
+            best.map_or(0, |b| b.supersample),
+            best.map_or(0, |b| b.max_fragments)
+        );
+    }
+    Ok(())
+}
