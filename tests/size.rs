@@ -162,7 +162,8 @@ fn destination_cache_and_tile_size_do_not_change_the_image() {
 
 #[test]
 fn bad_flags_are_refused_clearly() {
-    let cases: [(Vec<&str>, &str); 4] = [
+    let cases: [(Vec<&str>, &str); 5] = [
+        (vec!["--min-psnr", "30", "--max-dram-overhead", "-1"], "--max-dram-overhead -1: expected a fraction >= 0"),
         (vec!["--min-psnr", "-5"], "--min-psnr -5: expected a PSNR of 0 dB or more"),
         (vec!["--min-psnr", "30", "--min-ssim", "2"], "--min-ssim 2: expected an SSIM from 0 to 1"),
         (vec!["--min-psnr", "30", "--preset", "nope"], "--preset"),
@@ -191,4 +192,38 @@ fn every_candidates_column_is_documented_with_its_unit() {
             "docs/size.md: no table row for `{name}` ({unit})"
         );
     }
+}
+
+#[test]
+fn a_dram_allowance_buys_a_smaller_cache_within_it() {
+    let work = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = work.path().join(name);
+        let mut args = vec!["size", s(tiny()), "--min-psnr", "0", "--out", s(&out)];
+        args.extend(extra);
+        let o = postwarp(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        table(&out)
+    };
+    let (head, strict) = run("strict", &[]);
+    let (_, loose) = run("loose", &["--max-dram-overhead", "0.5"]);
+    let c = |r: &Vec<String>, name: &str| r[col(&head, name)].clone();
+    let num = |r: &Vec<String>, name: &str| c(r, name).parse::<f64>().unwrap();
+    let chosen = |rows: &[Vec<String>]| rows.iter().find(|r| c(r, "chosen") == "true").unwrap().clone();
+    let (a, b) = (chosen(&strict), chosen(&loose));
+    assert!(num(&b, "dest_cache_bytes") <= num(&a, "dest_cache_bytes"), "{a:?} vs {b:?}");
+    // Within the allowance of its own tile size's miss-free cache.
+    let free = loose
+        .iter()
+        .find(|r| {
+            c(r, "stage") == "cache"
+                && c(r, "tile_size_samples") == c(&b, "tile_size_samples")
+                && c(r, "capacity_misses") == "0"
+        })
+        .unwrap();
+    assert!(num(&b, "dram_bytes_per_frame") <= 1.5 * num(free, "dram_bytes_per_frame"), "{b:?} vs {free:?}");
+    // A smaller cache was taken somewhere, or none existed under the allowance.
+    let smaller_within =
+        loose.iter().any(|r| c(r, "stage") == "cache" && c(r, "capacity_misses") != "0" && c(r, "passes") == "true");
+    assert!(smaller_within || num(&b, "dest_cache_bytes") == num(&a, "dest_cache_bytes"));
 }

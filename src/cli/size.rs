@@ -29,6 +29,11 @@ pub struct Args {
     /// Use the first N derived frames (frames).
     #[arg(long)]
     pub frames: Option<usize>,
+    /// Accept a smaller destination cache with capacity misses if its DRAM
+    /// bytes per frame are at most (1 + F) times the miss-free cache's
+    /// (fraction, >= 0; 0 = the cache must hold the working set).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub max_dram_overhead: f64,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -38,7 +43,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         bail!("{}: no such trace (expected a trace directory or its postwarp.trace)", a.trace.display());
     }
     let cache_dir = a.out.clone().unwrap_or_else(|| std::env::temp_dir().join("postwarp-size"));
-    let o = Options { trace: a.trace, floor, preset: a.preset, frames: a.frames, cache_dir };
+    if !(a.max_dram_overhead.is_finite() && a.max_dram_overhead >= 0.0) {
+        bail!(
+            "--max-dram-overhead {}: expected a fraction >= 0 (0.25 = 25 % more DRAM bytes than the miss-free cache)",
+            a.max_dram_overhead
+        );
+    }
+    let o = Options {
+        trace: a.trace,
+        floor,
+        preset: a.preset,
+        frames: a.frames,
+        cache_dir,
+        max_dram_overhead: a.max_dram_overhead,
+    };
     let r = size_and_write(&o, a.out.as_deref())?;
     print!("{}", output::text(&r));
     if let Some(d) = &a.out {

@@ -24,7 +24,11 @@
 //!    tiles (powers of two; 8 tiles is the engine's minimum), up to the
 //!    first power of two holding every tile of the frame, are tried in
 //!    order; the smallest with no capacity misses over all frames (the
-//!    cache holds the working set) is that tile size's cache.
+//!    cache holds the working set) is that tile size's cache. With
+//!    `--max-dram-overhead F` (a fraction, default 0), a smaller cache of
+//!    the same search also passes if its DRAM bytes per frame are at most
+//!    (1 + F) times the miss-free cache's: capacity misses are then
+//!    accepted as long as the traffic they add stays within F.
 //! 4. The configuration is the tile size whose cache has the fewest bytes;
 //!    ties: fewer DRAM bytes per frame, then the smaller tile. Every other
 //!    knob is the preset's.
@@ -102,6 +106,9 @@ pub struct Options {
     pub frames: Option<usize>,
     /// Where regenerated traces are cached (`DIR/traces/`).
     pub cache_dir: PathBuf,
+    /// DRAM traffic a smaller cache may add over the miss-free one
+    /// (fraction of its DRAM bytes per frame; 0 = no capacity misses).
+    pub max_dram_overhead: f64,
 }
 
 /// The answer.
@@ -212,6 +219,15 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
                     break;
                 }
                 n *= 2;
+            }
+            // Rule 3 with a DRAM allowance: against the miss-free cache's
+            // traffic (the last one tried, if it is miss-free).
+            if o.max_dram_overhead > 0.0 {
+                if let Some(d0) = tried.last().filter(|c| c.capacity_misses == 0).map(|c| c.dram_bytes_per_frame) {
+                    for c in &mut tried {
+                        c.passes = c.dram_bytes_per_frame <= (1.0 + o.max_dram_overhead) * d0;
+                    }
+                }
             }
             Ok(tried)
         })
