@@ -16,6 +16,8 @@ use postwarp_rtl::units::abuffer::{
 use postwarp_rtl::{DestFrame, SampleImage};
 use std::path::PathBuf;
 
+mod common;
+
 const TRACES: [&str; 5] = ["room", "slants", "hairball", "occluders", "motorcycle"];
 
 fn trace(name: &str) -> Trace {
@@ -204,23 +206,6 @@ fn reference_bytes_by_rectangle() {
     assert_eq!(raw.bytes_in_pixels(x0, y0, x1, y1), ((x1 - x0) * (y1 - y0) * ss * ss) as u64 * RAW_SAMPLE_BYTES);
 }
 
-fn to_dest_frame(d: &DestPlanes) -> DestFrame {
-    DestFrame {
-        width: d.width,
-        height: d.height,
-        colour: d.colour.clone(),
-        inv_z: d.inv_z.clone(),
-        slopes: d.slopes.clone(),
-        source: d.source.clone(),
-        hole: d.hole.clone(),
-        real: d.real.clone(),
-        fill_colour: d.fill_colour.clone(),
-        fill_valid: d.fill_valid.clone(),
-        fill_distance: d.fill_distance.clone(),
-        fill_weight: d.fill_weight.clone(),
-    }
-}
-
 /// Sample indices where a DestFrame and golden DestPlanes differ in any bit
 /// of any plane.
 fn dest_diffs(a: &DestFrame, b: &DestPlanes) -> Vec<usize> {
@@ -255,14 +240,14 @@ fn check_dest(d: &DestPlanes, p: &AbufferParams, what: &str) {
         pixels * PIXEL_HEADER_BYTES + fragments_after_merging(&gs.fragments_per_pixel, p.max_fragments) * FRAGMENT_BYTES
     };
 
-    let mut whole = to_dest_frame(d);
+    let mut whole = common::dest_frame(d);
     let mut c = AbufferCounters::default();
     let bytes = round_trip_dest_pixels(&mut whole, 0, 0, pw, ph, p, &mut c);
     assert_eq!(dest_diffs(&whole, &want), Vec::<usize>::new(), "{what}: whole frame");
     assert_eq!((&c.fragments_per_pixel, c.forced_merges), (&gs.fragments_per_pixel, gs.forced_merges), "{what}");
     assert_eq!(bytes, want_bytes, "{what}: bytes");
 
-    let mut tiled = to_dest_frame(d);
+    let mut tiled = common::dest_frame(d);
     let mut ct = AbufferCounters::default();
     let mut tile_bytes = 0;
     for ty in (0..ph).step_by(4) {

@@ -190,22 +190,6 @@ proptest! {
 
 // ---------------------------------------------------------------- hole fill
 
-/// The golden planes as the hardware store holds them.
-fn to_frame(d: &DestPlanes) -> DestFrame {
-    let mut f = DestFrame::new(d.width, d.height);
-    f.colour.clone_from(&d.colour);
-    f.inv_z.clone_from(&d.inv_z);
-    f.slopes.clone_from(&d.slopes);
-    f.source.clone_from(&d.source);
-    f.hole.clone_from(&d.hole);
-    f.real.clone_from(&d.real);
-    f.fill_colour.clone_from(&d.fill_colour);
-    f.fill_valid.clone_from(&d.fill_valid);
-    f.fill_distance.clone_from(&d.fill_distance);
-    f.fill_weight.clone_from(&d.fill_weight);
-    f
-}
-
 fn bits3(v: &[[f32; 3]]) -> Vec<[u32; 3]> {
     v.iter().map(|c| c.map(f32::to_bits)).collect()
 }
@@ -317,7 +301,7 @@ proptest! {
         passes in prop::collection::vec((epipole_strategy(), params_strategy()), 1..4),
     ) {
         let mut d = planes_from(w, h, &spec);
-        let mut f = to_frame(&d);
+        let mut f = common::dest_frame(&d);
         for (k, (e, p)) in passes.iter().enumerate() {
             compare_pass(&mut d, &mut f, e, *p, &format!("{w}x{h} pass {k}, epipole {:?}, {p:?}", e.h));
         }
@@ -356,7 +340,7 @@ fn hole_fill_unit_matches_golden_on_edge_epipoles() {
     let p = HoleFillParams { far_distance: 1, far_offset: 2, max_distance: 63 };
     for e in &cases {
         let mut d = planes_from(w, h, &spec);
-        let mut f = to_frame(&d);
+        let mut f = common::dest_frame(&d);
         compare_pass(&mut d, &mut f, e, p, &format!("epipole {:?}", e.h));
     }
 }
@@ -386,7 +370,7 @@ fn hole_fill_unit_matches_golden_on_a_warped_room_frame() {
         cmd.warps = subset.iter().map(|&j| full.warps[j].clone()).collect();
         let refs: Vec<&PreparedReference> = subset.iter().map(|&j| &prepared[j]).collect();
         let mut d = warp_frame(&cmd, &refs, &cfg).samples;
-        let mut f = to_frame(&d);
+        let mut f = common::dest_frame(&d);
         // One pass per warp of the command, each around that warp's derived
         // epipole, accumulating over the passes.
         for (k, warp) in cmd.warps.iter().enumerate() {

@@ -143,23 +143,6 @@ fn dest_frame() -> impl Strategy<Value = (AbufferParams, DestPlanes)> {
     )
 }
 
-fn to_dest_frame(d: &DestPlanes) -> DestFrame {
-    DestFrame {
-        width: d.width,
-        height: d.height,
-        colour: d.colour.clone(),
-        inv_z: d.inv_z.clone(),
-        slopes: d.slopes.clone(),
-        source: d.source.clone(),
-        hole: d.hole.clone(),
-        real: d.real.clone(),
-        fill_colour: d.fill_colour.clone(),
-        fill_valid: d.fill_valid.clone(),
-        fill_distance: d.fill_distance.clone(),
-        fill_weight: d.fill_weight.clone(),
-    }
-}
-
 /// Sample indices where a hardware frame and golden planes differ in any bit.
 fn dest_diffs(a: &DestFrame, b: &DestPlanes) -> Vec<usize> {
     (0..a.len())
@@ -427,7 +410,7 @@ proptest! {
         }
         // The same through the frame-level round trips, hardware and golden.
         let d = planes_of(ss, &samples);
-        let mut hw = to_dest_frame(&d);
+        let mut hw = common::dest_frame(&d);
         round_trip_dest_pixels(&mut hw, 0, 0, 1, 1, &p, &mut AbufferCounters::default());
         let mut gd = d.clone();
         golden::round_trip_dest(&mut gd, &golden_params(&p), &mut golden::AbufferStats::default());
@@ -469,7 +452,7 @@ proptest! {
         golden::round_trip_dest(&mut want, &golden_params(&p), &mut gs);
         let (pw, ph) = (d.width / p.ss, d.height / p.ss);
 
-        let mut whole = to_dest_frame(&d);
+        let mut whole = common::dest_frame(&d);
         let mut c = AbufferCounters::default();
         let bytes = round_trip_dest_pixels(&mut whole, 0, 0, pw, ph, &p, &mut c);
         prop_assert_eq!(dest_diffs(&whole, &want), Vec::<usize>::new());
@@ -482,7 +465,7 @@ proptest! {
             prop_assert_eq!(bytes, (pw * ph) as u64 * PIXEL_HEADER_BYTES + c.fragments_written * FRAGMENT_BYTES);
         }
 
-        let mut tiled = to_dest_frame(&d);
+        let mut tiled = common::dest_frame(&d);
         let mut ct = AbufferCounters::default();
         let mut tile_bytes = 0;
         for ty in (0..ph).step_by(2) {

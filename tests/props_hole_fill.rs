@@ -64,23 +64,6 @@ fn params() -> impl Strategy<Value = HoleFillParams> {
     ]
 }
 
-fn to_frame(d: &DestPlanes) -> DestFrame {
-    DestFrame {
-        width: d.width,
-        height: d.height,
-        colour: d.colour.clone(),
-        inv_z: d.inv_z.clone(),
-        slopes: d.slopes.clone(),
-        source: d.source.clone(),
-        hole: d.hole.clone(),
-        real: d.real.clone(),
-        fill_colour: d.fill_colour.clone(),
-        fill_valid: d.fill_valid.clone(),
-        fill_distance: d.fill_distance.clone(),
-        fill_weight: d.fill_weight.clone(),
-    }
-}
-
 /// The reference model: the pass as `golden::hole_fill` documents it, with
 /// a visited bit-plane in place of ranks. Returns (filled, unreached).
 fn model(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> (u64, u64) {
@@ -203,7 +186,7 @@ proptest! {
         prop_assert_eq!(bits(&g), bits(&m), "golden differs from the visited-only model: {}", ctx);
         prop_assert_eq!((st.filled, st.unreached), (m_filled, m_unreached), "{}", ctx);
 
-        let mut f = to_frame(&before);
+        let mut f = common::dest_frame(&before);
         let mut unit = HoleFillUnit::new(d.width, d.height, &e, p);
         unit.fill_frame(&mut f);
         prop_assert_eq!(frame_bits(&f), bits(&m), "hardware differs from the visited-only model: {}", ctx);

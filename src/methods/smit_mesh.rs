@@ -55,11 +55,13 @@
 //! top-left rule leaves the last centres to the missing triangles).
 
 use super::smit_errors;
-use super::smit_warp::{WarpedReference, WarpedSample, depth_write, triangle_any_winding, warp_frame, window_of};
+use super::smit_warp::{
+    WarpedReference, WarpedSample, depth_write, triangle_any_winding, warp_counters, warp_frame, window_of,
+};
 use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::planes::DestPlanes;
 use glam::DVec2;
-use serde_json::{Map, json};
+use serde_json::json;
 
 /// Rule 3's default tolerance τ (predicted edge lengths, at least τ
 /// derived samples).
@@ -236,11 +238,8 @@ impl Reconstruction for SmitMesh {
         for (r, img) in warped.iter().zip(input.refs) {
             self.draw(r, &img.colour, out, &mut st);
         }
-        let mut extra = Map::new();
-        let (refs, culled) = warped.iter().fold((0, 0), |(a, b), r| (a + r.reference_samples, b + r.culled_samples));
+        let mut extra = warp_counters(&warped);
         for (k, v) in [
-            ("reference_samples", refs),
-            ("culled_samples", culled),
             ("missing_triangles", st.missing_triangles),
             ("broken_triangles", st.broken_triangles),
             ("folded_triangles", st.folded_triangles),

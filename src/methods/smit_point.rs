@@ -39,11 +39,11 @@
 //! points.
 
 use super::smit_errors;
-use super::smit_warp::{WarpedReference, ceil, centres, depth_write, warp_frame};
+use super::smit_warp::{WarpedReference, ceil, centres, depth_write, warp_counters, warp_frame};
 use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::planes::DestPlanes;
 use glam::{DMat2, DVec2};
-use serde_json::{Map, json};
+use serde_json::json;
 
 /// Rule 3's default cap on the splat side (derived samples).
 pub const MAX_SPLAT: u32 = 16;
@@ -145,11 +145,8 @@ impl Reconstruction for SmitPoint {
         for (r, img) in warped.iter().zip(input.refs) {
             self.draw(r, &img.colour, out, &mut st);
         }
-        let mut extra = Map::new();
-        let (refs, culled) = warped.iter().fold((0, 0), |(a, b), r| (a + r.reference_samples, b + r.culled_samples));
+        let mut extra = warp_counters(&warped);
         for (k, v) in [
-            ("reference_samples", refs),
-            ("culled_samples", culled),
             ("off_image", st.off_image),
             ("clamped_splats", st.clamped_splats),
             ("fragments", st.fragments),

@@ -38,11 +38,13 @@
 
 use super::smit_errors;
 use super::smit_point::{MAX_SPLAT, footprint_extent};
-use super::smit_warp::{WarpedReference, WarpedSample, depth_write, triangle_any_winding, warp_frame, window_of};
+use super::smit_warp::{
+    WarpedReference, WarpedSample, depth_write, triangle_any_winding, warp_counters, warp_frame, window_of,
+};
 use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::planes::DestPlanes;
 use glam::DVec2;
-use serde_json::{Map, json};
+use serde_json::json;
 
 /// Rules 2–3: the quad's corners A, B, D, C and whether it was capped.
 pub fn quad_corners(s: &WarpedSample, max_size: u32) -> ([DVec2; 4], bool) {
@@ -148,11 +150,8 @@ impl Reconstruction for SmitQuad {
         for (r, img) in warped.iter().zip(input.refs) {
             self.draw(r, &img.colour, out, &mut st);
         }
-        let mut extra = Map::new();
-        let (refs, culled) = warped.iter().fold((0, 0), |(a, b), r| (a + r.reference_samples, b + r.culled_samples));
+        let mut extra = warp_counters(&warped);
         for (k, v) in [
-            ("reference_samples", refs),
-            ("culled_samples", culled),
             ("off_image", st.off_image),
             ("clamped_quads", st.clamped_quads),
             ("degenerate_quads", st.degenerate_quads),

@@ -37,6 +37,7 @@ use crate::golden::planes::DestPlanes;
 use crate::golden::transform::{WarpContext, warp_of};
 use glam::{DMat2, DVec2};
 use postwarp_rtl::{ReferenceWarp, SampleImage};
+use serde_json::{Map, Value, json};
 
 /// One warped reference sample (rule 1–2).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -208,6 +209,16 @@ pub fn triangle_any_winding(v: [DVec2; 3], win: Window, mut f: impl FnMut(u32, u
         triangle(v, win, f);
         false
     }
+}
+
+/// The counters every Smit reconstruction starts its `extra` with:
+/// `reference_samples` and `culled_samples` summed over the references.
+pub fn warp_counters(warped: &[WarpedReference]) -> Map<String, Value> {
+    let (refs, culled) = warped.iter().fold((0, 0), |(a, b), r| (a + r.reference_samples, b + r.culled_samples));
+    let mut extra = Map::new();
+    extra.insert("reference_samples".into(), json!(refs));
+    extra.insert("culled_samples".into(), json!(culled));
+    extra
 }
 
 #[cfg(test)]

@@ -7,7 +7,8 @@
 pub mod props;
 
 use glam::{DQuat, DVec3};
-use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
+use postwarp::golden::planes::DestPlanes;
+use postwarp_rtl::{Camera, DestFrame, Intrinsics, Pose, SampleImage};
 
 /// A fronto-parallel rectangle at depth `z`, `x0 <= X < x1`, all Y.
 #[derive(Clone, Copy)]
@@ -92,5 +93,24 @@ pub fn prop_config(default: u32) -> proptest::test_runner::Config {
             "proptest-regressions",
         ))),
         ..proptest::test_runner::Config::default()
+    }
+}
+
+/// The golden model's derived planes as the hardware store holds them (the
+/// planes both have; the golden mesh/splat bit has no hardware plane).
+pub fn dest_frame(d: &DestPlanes) -> DestFrame {
+    DestFrame {
+        width: d.width,
+        height: d.height,
+        colour: d.colour.clone(),
+        inv_z: d.inv_z.clone(),
+        slopes: d.slopes.clone(),
+        source: d.source.clone(),
+        hole: d.hole.clone(),
+        real: d.real.clone(),
+        fill_colour: d.fill_colour.clone(),
+        fill_valid: d.fill_valid.clone(),
+        fill_distance: d.fill_distance.clone(),
+        fill_weight: d.fill_weight.clone(),
     }
 }
