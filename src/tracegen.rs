@@ -78,6 +78,18 @@ pub struct TraceSpec {
     /// Stress: quantise reference depth (1/z) to this many bits over the
     /// reference's own 1/z range (0 = exact, the default; 1 to 24 bits).
     pub depth_bits: u32,
+    /// Stress: the fixed-point range of `depth_bits` made this many times
+    /// wider than the reference's own 1/z range, towards the camera (a depth
+    /// buffer whose near plane is closer than the nearest surface): factor
+    /// >= 1, default 1; needs `depth_bits` > 0.
+    pub depth_range_scale: f64,
+    /// Stress: radius of every `rod` object of the scene (its thin features)
+    /// multiplied by this factor (> 0; default 1).
+    pub rod_radius_scale: f64,
+    /// Stress: every `rod` object scaled — ends, length and radius — by this
+    /// factor about the mean of the rods' mid-points (> 0; default 1): on a
+    /// flat arrangement such as a fence, thinner rods at the same coverage.
+    pub rod_scale: f64,
 }
 
 impl Default for TraceSpec {
@@ -99,6 +111,9 @@ impl Default for TraceSpec {
             derived_roll_deg: 0.0,
             depth_bits: 0,
             path_offset_y: 0.0,
+            rod_radius_scale: 1.0,
+            rod_scale: 1.0,
+            depth_range_scale: 1.0,
         }
     }
 }
@@ -146,6 +161,20 @@ impl TraceSpec {
         }
         if self.depth_bits > MAX_DEPTH_BITS {
             bail!("depth_bits {}: expected 0 (exact) to {MAX_DEPTH_BITS}", self.depth_bits);
+        }
+        if !(self.depth_range_scale >= 1.0 && self.depth_range_scale <= MAX_DEPTH_RANGE_SCALE) {
+            bail!("depth_range_scale {}: expected a factor in [1, {MAX_DEPTH_RANGE_SCALE}]", self.depth_range_scale);
+        }
+        if self.depth_range_scale != 1.0 && self.depth_bits == 0 {
+            bail!(
+                "depth_range_scale {} widens the range of quantised depth: set depth_bits (1 to {MAX_DEPTH_BITS}) too",
+                self.depth_range_scale
+            );
+        }
+        for (name, v) in [("rod_radius_scale", self.rod_radius_scale), ("rod_scale", self.rod_scale)] {
+            if !(v > 0.0 && v <= MAX_ROD_SCALE) {
+                bail!("{name} {v}: expected a factor in (0, {MAX_ROD_SCALE}]");
+            }
         }
         // As `make_trace` counts them, in f64 so that no ratio overflows.
         let refs = ((self.frames - 1) as f64 * self.ref_rate_hz / self.derived_rate_hz + 1e-9).floor() + 2.0;
@@ -199,6 +228,42 @@ impl TraceSpec {
         p
     }
 
+    /// The stress knobs away from their defaults, as one provenance line
+    /// (`None` when every one is at its default).
+    pub fn stress_note(&self, scene: &Scene) -> Option<String> {
+        let mut parts = Vec::new();
+        if self.derived_offset != [0.0; 3] {
+            parts.push(format!("derived cameras offset {:?} (camera x, y, z; scene units)", self.derived_offset));
+        }
+        if self.derived_roll_deg != 0.0 {
+            parts.push(format!("derived cameras rolled {} deg", self.derived_roll_deg));
+        }
+        if self.path_offset_y != 0.0 {
+            parts.push(format!("every camera moved {} scene units up", self.path_offset_y));
+        }
+        if self.depth_bits != 0 {
+            parts.push(format!(
+                "reference 1/z quantised to {} bits over {}x its own range",
+                self.depth_bits, self.depth_range_scale
+            ));
+        }
+        if self.rod_radius_scale != 1.0 {
+            parts.push(format!("the scene's {} rods at {}x their radius", scene.rod_count(), self.rod_radius_scale));
+        }
+        if self.rod_scale != 1.0 {
+            let c = scene.rod_centre();
+            parts.push(format!(
+                "the scene's {} rods scaled {}x about their centre ({:.3}, {:.3}, {:.3})",
+                scene.rod_count(),
+                self.rod_scale,
+                c.x,
+                c.y,
+                c.z
+            ));
+        }
+        (!parts.is_empty()).then(|| format!("stress: {}", parts.join("; ")))
+    }
+
     /// Index of the reference frame at or before derived frame `k`.
     pub fn previous_reference(&self, k: usize) -> usize {
         // Exact when the rates divide: 30 Hz / 5 Hz gives 6 derived per reference.
@@ -207,14 +272,33 @@ impl TraceSpec {
     }
 }
 
+/// Largest `rod_radius_scale` and `rod_scale` (a hairball rod of 10 mm
+/// radius becomes 0.5 m).
+pub const MAX_ROD_SCALE: f64 = 50.0;
+
+/// `scene` as `spec` renders it: with its rods changed by
+/// `rod_radius_scale` and `rod_scale` (borrowed unchanged at the defaults).
+pub fn stressed_scene<'a>(scene: &'a Scene, spec: &TraceSpec) -> std::borrow::Cow<'a, Scene> {
+    if spec.rod_radius_scale == 1.0 && spec.rod_scale == 1.0 {
+        std::borrow::Cow::Borrowed(scene)
+    } else {
+        std::borrow::Cow::Owned(scene.with_rods_scaled(spec.rod_radius_scale, spec.rod_scale))
+    }
+}
+
+/// Largest `depth_range_scale` (2^30: wastes 30 bits).
+pub const MAX_DEPTH_RANGE_SCALE: f64 = 1_073_741_824.0;
+
 /// Most bits of `depth_bits`.
 pub const MAX_DEPTH_BITS: u32 = 24;
 
 /// Quantise the finite positive depths of `depth` (1/z per sample is what
-/// the warper interpolates) to `bits` bits over their own 1/z range, to the
-/// nearest level; `bits == 0` leaves them exact. Infinite or non-positive
+/// the warper interpolates) to `bits` bits, to the nearest level, over
+/// their own 1/z range `[lo, hi]` widened to `[lo, lo + range_scale·(hi −
+/// lo)]` (`range_scale` >= 1: a near plane closer than the nearest
+/// surface); `bits == 0` leaves them exact. Infinite or non-positive
 /// depths (background) are kept.
-pub fn quantise_depth(depth: &mut [f32], bits: u32) {
+pub fn quantise_depth(depth: &mut [f32], bits: u32, range_scale: f64) {
     if bits == 0 {
         return;
     }
@@ -225,9 +309,10 @@ pub fn quantise_depth(depth: &mut [f32], bits: u32) {
         return;
     }
     let levels = ((1u64 << bits) - 1) as f64;
+    let span = (hi - lo) * range_scale.max(1.0);
     for d in depth.iter_mut().filter(|d| d.is_finite() && **d > 0.0) {
-        let q = ((1.0 / *d as f64 - lo) / (hi - lo) * levels).round() / levels;
-        *d = (1.0 / (lo + q * (hi - lo))) as f32;
+        let q = ((1.0 / *d as f64 - lo) / span * levels).round() / levels;
+        *d = (1.0 / (lo + q * span)) as f32;
     }
 }
 
@@ -278,6 +363,7 @@ pub fn make_trace_with(
     progress: bool,
 ) -> anyhow::Result<PathBuf> {
     spec.validate()?;
+    let scene = &*stressed_scene(scene, spec);
     let path = scene_path(scene, spec.path)?;
     let display = spec.display_intrinsics();
     let ref_k = spec.reference_intrinsics()?;
@@ -295,6 +381,9 @@ pub fn make_trace_with(
     let (rh, rv) = ref_k.fov_deg();
     let (dh, dv) = display.fov_deg();
     w.note(format!("field of view: display {dh:.1}x{dv:.1} deg, references {rh:.1}x{rv:.1} deg"));
+    if let Some(stress) = spec.stress_note(scene) {
+        w.note(stress);
+    }
 
     let steps = (n_refs + if spec.truth { spec.frames } else { 0 }) as u64;
     let bar = if progress { crate::progress::bar(steps, "rendering") } else { indicatif::ProgressBar::hidden() };
@@ -303,7 +392,7 @@ pub fn make_trace_with(
         let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
         let cam = Camera { intrinsics: ref_k, pose };
         let mut img = scene.render(&cam, ss);
-        quantise_depth(&mut img.z, spec.depth_bits);
+        quantise_depth(&mut img.z, spec.depth_bits, spec.depth_range_scale);
         w.add_reference(t, cam, &img, SlopeSource::Exact).with_context(|| format!("writing reference {j}"))?;
         bar.inc(1);
     }
@@ -339,6 +428,7 @@ pub fn frame_in_memory(
     k: usize,
 ) -> anyhow::Result<(postwarp_rtl::FrameCommands, Vec<postwarp_rtl::SampleImage>)> {
     let ss = spec.supersample;
+    let scene = &*stressed_scene(scene, spec);
     let path = scene_path(scene, spec.path)?;
     let ref_k = spec.reference_intrinsics()?;
     let prev = spec.previous_reference(k);
@@ -358,7 +448,7 @@ pub fn frame_in_memory(
         .iter()
         .map(|(_, cam)| {
             let mut img = scene.render(cam, ss);
-            quantise_depth(&mut img.z, spec.depth_bits);
+            quantise_depth(&mut img.z, spec.depth_bits, spec.depth_range_scale);
             for c in img.colour.iter_mut().flatten() {
                 *c = exr::prelude::f16::from_f32(*c).to_f32();
             }
@@ -416,15 +506,68 @@ mod tests {
     fn depth_quantisation_has_at_most_2_to_the_bits_levels_in_inverse_depth() {
         let mut z: Vec<f32> = (1..=1000).map(|i| i as f32 * 0.1).chain([f32::INFINITY, 0.0]).collect();
         let exact = z.clone();
-        quantise_depth(&mut z, 0);
+        quantise_depth(&mut z, 0, 1.0);
         assert_eq!(z, exact);
-        quantise_depth(&mut z, 3);
+        let mut wide = z.clone();
+        quantise_depth(&mut z, 3, 1.0);
         let mut levels: Vec<u32> = z[..1000].iter().map(|d| (1.0 / d).to_bits()).collect();
         levels.sort();
         levels.dedup();
         assert!(levels.len() <= 8, "{}", levels.len());
         assert_eq!(&z[1000..], &[f32::INFINITY, 0.0], "background kept");
         assert!((z[0] - 0.1).abs() < 1e-6 && (z[999] - 100.0).abs() < 1e-3, "the range's ends are levels");
+
+        // A range 8 times wider at 6 bits leaves 63/8 steps over the
+        // samples' own range: at most 9 levels (about 3 bits' worth).
+        quantise_depth(&mut wide, 6, 8.0);
+        let mut levels: Vec<u32> = wide[..1000].iter().map(|d| d.to_bits()).collect();
+        levels.sort();
+        levels.dedup();
+        assert!((6..=9).contains(&levels.len()), "{}", levels.len());
+        assert!((wide[999] - 100.0).abs() < 1e-3, "the far end is still a level");
+        assert!(wide.iter().take(1000).all(|d| d.is_finite() && *d > 0.0));
+        let e = TraceSpec { depth_range_scale: 4.0, ..TraceSpec::default() }.validate().unwrap_err();
+        assert!(e.to_string().contains("depth_bits"), "{e}");
+        assert!(TraceSpec { depth_range_scale: 0.5, depth_bits: 8, ..TraceSpec::default() }.validate().is_err());
+        assert!(TraceSpec { depth_range_scale: 4.0, depth_bits: 8, ..TraceSpec::default() }.validate().is_ok());
+    }
+
+    #[test]
+    fn rod_radius_scale_widens_only_the_rods() {
+        let scene = Scene::builtin("hairball").unwrap();
+        assert_eq!(scene.rod_count(), 360);
+        let spec = TraceSpec { rod_radius_scale: 2.5, ..TraceSpec::default() };
+        let wide = stressed_scene(&scene, &spec);
+        for (a, b) in scene.rod_radii().iter().zip(wide.rod_radii()) {
+            assert!((b - 2.5 * a).abs() < 1e-12, "{a} -> {b}");
+        }
+        assert_eq!(wide.object_count(), scene.object_count());
+        assert!(matches!(stressed_scene(&scene, &TraceSpec::default()), std::borrow::Cow::Borrowed(_)));
+        assert!(spec.stress_note(&scene).unwrap().contains("360 rods at 2.5x"));
+        // Rendered, the rods cover more samples (about 2.5 times, less
+        // where they overlap each other).
+        let small = TraceSpec { width: 48, height: 36, ..spec.clone() };
+        let path = scene_path(&scene, small.path).unwrap();
+        let cam = Camera { intrinsics: small.display_intrinsics(), pose: path.pose(small.start_s) };
+        let rod_samples = |s: &Scene| s.render(&cam, 1).object_id.iter().filter(|&&id| s.is_rod(id)).count();
+        let (thin, thick) = (rod_samples(&scene), rod_samples(&wide));
+        assert!(thin > 20 && thick as f64 > 1.6 * thin as f64, "{thin} -> {thick}");
+        assert!(TraceSpec::default().stress_note(&scene).is_none());
+        for bad in [0.0, -1.0, f64::NAN, 51.0] {
+            let e = TraceSpec { rod_radius_scale: bad, ..TraceSpec::default() }.validate().unwrap_err();
+            assert!(e.to_string().contains("rod_radius_scale"), "{e}");
+            let e = TraceSpec { rod_scale: bad, ..TraceSpec::default() }.validate().unwrap_err();
+            assert!(e.to_string().contains("rod_scale"), "{e}");
+        }
+
+        // rod_scale: radii and distances from the centre scale together;
+        // the centre stays.
+        let both = TraceSpec { rod_radius_scale: 2.0, rod_scale: 0.25, ..TraceSpec::default() };
+        let small = stressed_scene(&scene, &both);
+        for (a, b) in scene.rod_radii().iter().zip(small.rod_radii()) {
+            assert!((b - 0.5 * a).abs() < 1e-12, "{a} -> {b}");
+        }
+        assert!((small.rod_centre() - scene.rod_centre()).length() < 1e-9);
     }
 
     #[test]

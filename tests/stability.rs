@@ -35,6 +35,10 @@ const EXTREMES: &[(&str, &str, &str)] = &[
     ("prediction", "room", "prediction = 2.0"),
     ("grazing", "slants", "path_offset_y = -1.55"),
     ("depth-bits", "slants", "depth_bits = 2"),
+    ("depth-range", "slants", "depth_bits = 16\ndepth_range_scale = 16384.0"),
+    ("thin", "specs/scenes/fence.toml", "rod_scale = 0.125"),
+    ("thin-hairball-thin", "hairball", "rod_radius_scale = 0.125"),
+    ("thin-hairball-wide", "hairball", "rod_radius_scale = 16.0"),
 ];
 
 #[test]
@@ -42,6 +46,8 @@ fn every_method_survives_the_extreme_of_every_stressor() {
     let d = tempfile::tempdir().unwrap();
     let mut spec = String::from("name = \"extremes\"\nruns = 1\nmethods = \"all\"\nhole_fills = \"default\"\n");
     for (name, scene, knob) in EXTREMES {
+        // A scene file is named from the repository root (the spec is in a temporary directory).
+        let scene = if scene.ends_with(".toml") { root().join(scene).display().to_string() } else { scene.to_string() };
         spec += &format!(
             "\n[[traces]]\nname = \"{name}\"\nscene = \"{scene}\"\nwidth = 16\nheight = 12\nsupersample = 1\nframes = 1\n{knob}\n"
         );

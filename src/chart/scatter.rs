@@ -141,15 +141,18 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawR
     draw_legend(&legend, s)
 }
 
-fn plot_on<DB, X>(
-    root: &DrawingArea<DB, Shift>,
+/// A chart on `area` with the house style: margins, label areas, the
+/// `(x, y)` axis descriptions at `desc_size` points, ticks by [`tick`],
+/// light grey grid lines at the ticks only.
+pub(super) fn axes<'a, DB, X>(
     area: &DrawingArea<DB, Shift>,
-    s: &Scatter,
     x: X,
     y: Range<f64>,
-) -> DrawResult<()>
+    (x_desc, y_desc): (&str, &str),
+    desc_size: u32,
+) -> DrawResult<ChartContext<'a, DB, Cartesian2d<X::CoordDescType, plotters::coord::types::RangedCoordf64>>>
 where
-    DB: DrawingBackend,
+    DB: DrawingBackend + 'a,
     X: AsRangedCoord<Value = f64>,
     X::CoordDescType: ValueFormatter<f64>,
 {
@@ -162,16 +165,32 @@ where
     let fmt = |v: &f64| tick(*v);
     chart
         .configure_mesh()
-        .x_desc(s.x_label.as_str())
-        .y_desc(s.y_label.as_str())
+        .x_desc(x_desc)
+        .y_desc(y_desc)
         .x_label_formatter(&fmt)
         .y_label_formatter(&fmt)
-        .axis_desc_style((FAMILY, 15))
+        .axis_desc_style((FAMILY, desc_size))
         .label_style((FAMILY, 13))
         .light_line_style(TRANSPARENT)
         .bold_line_style(RGBColor(215, 215, 215))
         .draw()
         .map_err(e)?;
+    Ok(chart)
+}
+
+fn plot_on<DB, X>(
+    root: &DrawingArea<DB, Shift>,
+    area: &DrawingArea<DB, Shift>,
+    s: &Scatter,
+    x: X,
+    y: Range<f64>,
+) -> DrawResult<()>
+where
+    DB: DrawingBackend,
+    X: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+{
+    let mut chart = axes(area, x, y, (&s.x_label, &s.y_label), 15)?;
     let all: Vec<(f64, f64)> = s.series.iter().flat_map(|x| x.points.iter().copied()).collect();
     let front: Vec<(f64, f64)> = pareto_front(&all, s.better).into_iter().map(|i| all[i]).collect();
     chart.draw_series(std::iter::once(PathElement::new(step_line(&front), BLACK.stroke_width(2)))).map_err(e)?;

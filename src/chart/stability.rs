@@ -5,9 +5,12 @@
 //! 1. A CSV is a stress sweep when exactly one generated-trace column
 //!    ([`crate::sweep::trace_fields::TRACE_FIELDS`]) takes more than one
 //!    value, all of them numbers: that column is the stress axis. One chart
-//!    per scene, `stability.<scene>.psnr_luma_db-vs-<column>.svg` / `.png`.
+//!    per scene, `stability.<scene>.psnr_luma_db-vs-<column>.svg` / `.png`
+//!    (a scene file by its stem).
 //! 2. x = the stress value, y = luma PSNR (dB); one line with markers per
-//!    method and hole fill, styled as in the cost charts.
+//!    method and hole fill, styled as in the cost charts. The x axis is
+//!    logarithmic, ticked at the stress values, when they are all positive
+//!    and span more than a factor of 20 (`log_x`).
 //! 3. Threshold: luma PSNR [`THRESHOLD_DB`] = 25 dB, a horizontal dashed
 //!    line. Failure ([`failure_points`]): the *unstressed* value is the
 //!    first value of the axis in the CSV (the specification lists the
@@ -20,7 +23,10 @@ use super::font::{self, FAMILY};
 use super::scatter::{HEIGHT, WIDTH, tick};
 use super::style::{draw_marker, series_style};
 use plotters::coord::Shift;
+use plotters::coord::combinators::BindKeyPoints;
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
+use std::ops::Range;
 
 /// The quality threshold (luma PSNR, dB) below which a method has failed.
 pub const THRESHOLD_DB: f64 = 25.0;
@@ -144,9 +150,9 @@ pub fn stress_charts_from_csv(csv: &str) -> Result<Vec<(String, StressChart)>, S
         }
         series.sort_by_key(|s| s.style);
         out.push((
-            format!("stability.{}.psnr_luma_db-vs-{stress}", super::file_label(scene)),
+            format!("stability.{}.psnr_luma_db-vs-{stress}", super::file_label(&scene_label(scene))),
             StressChart {
-                title: format!("{spec_name}: {scene}, luma PSNR against {stress}"),
+                title: format!("{spec_name}: {}, luma PSNR against {stress}", scene_label(scene)),
                 x_label: stress_label(&stress),
                 threshold: THRESHOLD_DB,
                 series,
@@ -154,6 +160,15 @@ pub fn stress_charts_from_csv(csv: &str) -> Result<Vec<(String, StressChart)>, S
         ));
     }
     Ok(out)
+}
+
+/// A scene as the charts name it: a built-in scene's name, or a scene
+/// file's stem (`scenes/fence.toml` → `fence`).
+fn scene_label(scene: &str) -> String {
+    match std::path::Path::new(scene).file_stem() {
+        Some(stem) if scene.ends_with(".toml") => stem.to_string_lossy().into_owned(),
+        _ => scene.to_string(),
+    }
 }
 
 /// Axis label of a stress column: the column with its unit spelled out.
@@ -205,59 +220,20 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &StressChart) -> D
     if !x_lo.is_finite() {
         (x_lo, x_hi) = (0.0, 1.0);
     }
-    let xpad = if x_hi > x_lo { 0.05 * (x_hi - x_lo) } else { 1.0 };
     let ys = pts.iter().map(|p| p.1).filter(|v| v.is_finite()).chain([s.threshold]);
     let (y_lo, y_hi) = (ys.clone().fold(f64::INFINITY, f64::min), ys.fold(f64::NEG_INFINITY, f64::max));
     let ypad = if y_hi > y_lo { 0.08 * (y_hi - y_lo) } else { 1.0 };
-    let mut chart = ChartBuilder::on(&plot)
-        .margin(12)
-        .x_label_area_size(50)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x_lo - xpad..x_hi + xpad, y_lo - ypad..y_hi + ypad)
-        .map_err(e)?;
-    let fmt = |v: &f64| tick(*v);
-    chart
-        .configure_mesh()
-        .x_desc(s.x_label.as_str())
-        .y_desc("luma PSNR (dB), higher is better")
-        .x_label_formatter(&fmt)
-        .y_label_formatter(&fmt)
-        .axis_desc_style((FAMILY, 14))
-        .label_style((FAMILY, 13))
-        .light_line_style(TRANSPARENT)
-        .bold_line_style(RGBColor(215, 215, 215))
-        .draw()
-        .map_err(e)?;
-    let dashes: Vec<(f64, f64)> = {
-        let n = 40;
-        let w = (x_hi - x_lo + 2.0 * xpad) / n as f64;
-        (0..n).map(|i| x_lo - xpad + i as f64 * w).map(|x| (x, x + 0.5 * w)).collect()
-    };
-    chart
-        .draw_series(
-            dashes
-                .into_iter()
-                .map(|(a, b)| PathElement::new(vec![(a, s.threshold), (b, s.threshold)], BLACK.stroke_width(2))),
-        )
-        .map_err(e)?;
-    let area = chart.plotting_area().clone();
-    for ser in &s.series {
-        let (colour, shape) = series_style(ser.style);
-        let mut line: Vec<(f64, f64)> =
-            ser.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
-        line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart.draw_series(std::iter::once(PathElement::new(line.clone(), colour.stroke_width(2)))).map_err(e)?;
-        for p in &line {
-            draw_marker(root, area.map_coordinate(p), MARKER, shape, colour).map_err(e)?;
-        }
-    }
-    for ser in &s.series {
-        for x in &ser.failures {
-            if let Some(p) = ser.points.iter().find(|p| p.0 == *x && p.1.is_finite()) {
-                let c = area.map_coordinate(p);
-                root.draw(&Circle::new(c, MARKER + 5, BLACK.stroke_width(2))).map_err(e)?;
-            }
-        }
+    let y = y_lo - ypad..y_hi + ypad;
+    if log_x(x_lo, x_hi) {
+        // Ticks at the stress values themselves: a log axis spanning less
+        // than a decade on one side of 1 would otherwise have none there.
+        let mut ticks: Vec<f64> = pts.iter().map(|p| p.0).filter(|v| v.is_finite()).collect();
+        ticks.sort_by(f64::total_cmp);
+        ticks.dedup();
+        plot_on(root, &plot, s, (x_lo / 1.25..x_hi * 1.25).log_scale().with_key_points(ticks), y, true)?;
+    } else {
+        let xpad = if x_hi > x_lo { 0.05 * (x_hi - x_lo) } else { 1.0 };
+        plot_on(root, &plot, s, x_lo - xpad..x_hi + xpad, y, false)?;
     }
     // Legend: marker, name, where it fails.
     let style = (FAMILY, 13).into_font().color(&BLACK);
@@ -284,6 +260,68 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &StressChart) -> D
     legend.draw(&Text::new("failure: the first value below", (x0 + 30, y - 8), style.clone())).map_err(e)?;
     legend.draw(&Text::new("the threshold on each side of the", (x0 + 30, y + 8), small.clone())).map_err(e)?;
     legend.draw(&Text::new("unstressed value (the axis' first)", (x0 + 30, y + 24), small)).map_err(e)?;
+    Ok(())
+}
+
+/// The x axis is logarithmic when every stress value is positive and they
+/// span more than a factor of 20 (as the cost axes of the scatter charts).
+fn log_x(lo: f64, hi: f64) -> bool {
+    lo > 0.0 && hi / lo > 20.0
+}
+
+/// The plot: axes, threshold, one line per series, failures ringed.
+fn plot_on<DB, X>(
+    root: &DrawingArea<DB, Shift>,
+    area: &DrawingArea<DB, Shift>,
+    s: &StressChart,
+    x: X,
+    y: Range<f64>,
+    log: bool,
+) -> DrawResult<()>
+where
+    DB: DrawingBackend,
+    X: AsRangedCoord<Value = f64>,
+    X::CoordDescType: ValueFormatter<f64>,
+{
+    let mut chart = super::scatter::axes(area, x, y, (&s.x_label, "luma PSNR (dB), higher is better"), 14)?;
+    // The dashed threshold: 40 dashes evenly spaced on screen, so in the
+    // logarithm of x on a log axis.
+    let (x_lo, x_hi) = {
+        let r = chart.x_range();
+        (r.start, r.end)
+    };
+    let to = |v: f64| if log { v.ln() } else { v };
+    let from = |u: f64| if log { u.exp() } else { u };
+    let n = 40;
+    let w = (to(x_hi) - to(x_lo)) / n as f64;
+    let dashes: Vec<(f64, f64)> =
+        (0..n).map(|i| to(x_lo) + i as f64 * w).map(|u| (from(u), from(u + 0.5 * w))).collect();
+    chart
+        .draw_series(
+            dashes
+                .into_iter()
+                .map(|(a, b)| PathElement::new(vec![(a, s.threshold), (b, s.threshold)], BLACK.stroke_width(2))),
+        )
+        .map_err(e)?;
+    for ser in &s.series {
+        let (colour, shape) = series_style(ser.style);
+        let mut line: Vec<(f64, f64)> =
+            ser.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+        line.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart.draw_series(std::iter::once(PathElement::new(line.clone(), colour.stroke_width(2)))).map_err(e)?;
+        for p in &line {
+            draw_marker(root, chart.plotting_area().map_coordinate(p), MARKER, shape, colour).map_err(e)?;
+        }
+    }
+    let plot = chart.plotting_area();
+    for ser in &s.series {
+        for x in &ser.failures {
+            if let Some(p) = ser.points.iter().find(|p| p.0 == *x && p.1.is_finite()) {
+                let c = plot.map_coordinate(p);
+                root.draw(&Circle::new(c, MARKER + 5, BLACK.stroke_width(2))).map_err(e)?;
+            }
+        }
+    }
     Ok(())
 }
 
@@ -337,6 +375,8 @@ mod tests {
         let charts = stress_charts_from_csv(csv).unwrap();
         assert_eq!(charts.len(), 1);
         assert_eq!(charts[0].0, "stability.room.psnr_luma_db-vs-derived_roll_deg");
+        let file = stress_charts_from_csv(&csv.replace(",room,", ",specs/scenes/fence.toml,")).unwrap();
+        assert_eq!(file[0].0, "stability.fence.psnr_luma_db-vs-derived_roll_deg", "a scene file by its stem");
         let c = &charts[0].1;
         assert_eq!(c.series[0].failures, vec![10.0]);
         assert_eq!(c.series[1].name, "n");

@@ -201,6 +201,9 @@ pub struct Compiled {
     pub world: World,
     pub spline: SplineSpec,
     pub tracked: TrackedSpec,
+    /// Indices into `world.objects` of the objects written as `kind = "rod"`
+    /// (the scene's thin features), in file order.
+    pub rods: Vec<usize>,
 }
 
 struct Ctx<'a> {
@@ -367,6 +370,7 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
     }
 
     let mut objects = Vec::with_capacity(file.objects.len());
+    let mut rods = Vec::new();
     for (i, o) in file.objects.iter().enumerate() {
         let span = o.span();
         let o = o.get_ref();
@@ -390,6 +394,9 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
                 "its material has an image texture, which needs texture coordinates \
                  (a mesh with UVs or a finite plane)",
             ));
+        }
+        if matches!(o.kind, Kind::Rod) {
+            rods.push(objects.len());
         }
         objects.push(Object { shape, material });
     }
@@ -431,6 +438,7 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
         world: World::new(materials, objects),
         spline,
         tracked,
+        rods,
     })
 }
 

@@ -242,6 +242,32 @@ impl Cylinder {
         Cylinder { base, axis: axis.normalize(), radius, height }
     }
 
+    /// The same cylinder with its radius multiplied by `factor` (> 0).
+    pub fn with_radius_scaled(&self, factor: f64) -> Cylinder {
+        Cylinder { radius: self.radius * factor, ..self.clone() }
+    }
+
+    /// The same cylinder scaled by `factor` (> 0) about the point `centre`:
+    /// base, height and radius alike.
+    pub fn scaled_about(&self, centre: DVec3, factor: f64) -> Cylinder {
+        Cylinder {
+            base: centre + (self.base - centre) * factor,
+            axis: self.axis,
+            radius: self.radius * factor,
+            height: self.height * factor,
+        }
+    }
+
+    /// Radius (scene units).
+    pub fn radius(&self) -> f64 {
+        self.radius
+    }
+
+    /// Centre of the axis (scene units).
+    pub fn mid_point(&self) -> DVec3 {
+        self.base + self.axis * (0.5 * self.height)
+    }
+
     /// Bounding box.
     pub fn bounds(&self) -> Aabb {
         let top = self.base + self.axis * self.height;

@@ -121,6 +121,8 @@ pub struct Scene {
     to_light: DVec3,
     ambient: f32,
     world: world::World,
+    /// Objects written as `kind = "rod"` (indices into `world.objects`).
+    rods: Vec<usize>,
 }
 
 impl fmt::Debug for Scene {
@@ -197,7 +199,57 @@ impl Scene {
             to_light: c.to_light,
             ambient: c.ambient,
             world: c.world,
+            rods: c.rods,
         })
+    }
+
+    /// Number of `rod` objects (the scene's thin features).
+    pub fn rod_count(&self) -> usize {
+        self.rods.len()
+    }
+
+    /// True if object `id` (as in [`postwarp_rtl::SampleImage::object_id`],
+    /// index + 1) was written as a `rod`.
+    pub fn is_rod(&self, id: u32) -> bool {
+        id > 0 && self.rods.binary_search(&(id as usize - 1)).is_ok()
+    }
+
+    /// Radii of the `rod` objects (scene units), in file order.
+    pub fn rod_radii(&self) -> Vec<f64> {
+        self.rod_cylinders().map(|c| c.radius()).collect()
+    }
+
+    /// Mean of the `rod` objects' mid-points (scene units; the origin if
+    /// there is none): the centre about which `rod_scale` scales them.
+    pub fn rod_centre(&self) -> DVec3 {
+        let mids: Vec<DVec3> = self.rod_cylinders().map(|c| c.mid_point()).collect();
+        mids.iter().sum::<DVec3>() / mids.len().max(1) as f64
+    }
+
+    fn rod_cylinders(&self) -> impl Iterator<Item = &geometry::Cylinder> {
+        self.rods.iter().filter_map(|&i| match &self.world.objects[i].shape {
+            world::Shape::Cylinder(c) => Some(c),
+            _ => None,
+        })
+    }
+
+    /// This scene with its `rod` objects (the thin features) changed by two
+    /// stress factors (both > 0; 1 leaves them): `radius_scale` multiplies
+    /// each rod's radius alone; `scale` then scales every rod — ends,
+    /// length and radius — about the mean of the rods' mid-points, so a
+    /// flat arrangement of rods keeps the fraction of the view it covers
+    /// while each rod gets thinner or wider. Other objects, ids and
+    /// materials are unchanged; the BVH is rebuilt.
+    pub fn with_rods_scaled(&self, radius_scale: f64, scale: f64) -> Scene {
+        let centre = self.rod_centre();
+        let mut objects = self.world.objects.clone();
+        for &i in &self.rods {
+            if let world::Shape::Cylinder(c) = &objects[i].shape {
+                objects[i].shape =
+                    world::Shape::Cylinder(c.with_radius_scaled(radius_scale).scaled_about(centre, scale));
+            }
+        }
+        Scene { world: world::World::new(self.world.materials.clone(), objects), ..self.clone() }
     }
 
     /// Number of objects (object ids run from 1 to this).

@@ -57,13 +57,40 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
         "stress: reference depth (1/z) quantised to this many bits, 0 = exact (0 to 24)",
         "depth_bits",
     ),
+    (
+        "depth_range_scale",
+        "factor",
+        "stress: quantised 1/z range as a multiple of the reference's own (needs depth_bits)",
+        "depth_range_scale",
+    ),
+    (
+        "rod_radius_scale",
+        "factor",
+        "stress: radius of the scene's rods multiplied by this (0 to 50)",
+        "rod_radius_scale",
+    ),
+    (
+        "rod_scale",
+        "factor",
+        "stress: the scene's rods scaled about their centre, radius and all (0 to 50)",
+        "rod_scale",
+    ),
 ];
 
 /// The stress keys (the last of [`TRACE_FIELDS`]): hashed into a generated
 /// trace's identity only when not at their default, so traces made before
 /// they existed keep their directories.
-pub const STRESS_FIELDS: &[&str] =
-    &["derived_offset_x", "derived_offset_y", "derived_offset_z", "derived_roll", "path_offset_y", "depth_bits"];
+pub const STRESS_FIELDS: &[&str] = &[
+    "derived_offset_x",
+    "derived_offset_y",
+    "derived_offset_z",
+    "derived_roll",
+    "path_offset_y",
+    "depth_bits",
+    "depth_range_scale",
+    "rod_radius_scale",
+    "rod_scale",
+];
 
 fn whole(v: &toml::Value, lo: u64, hi: u64, unit: &str) -> Result<u64, String> {
     match v.as_integer() {
@@ -113,6 +140,15 @@ pub fn set(spec: &mut TraceSpec, key: &str, v: &toml::Value) -> Result<(), Strin
         "depth_bits" => {
             spec.depth_bits = whole(v, 0, crate::tracegen::MAX_DEPTH_BITS.into(), "bits")? as u32;
         }
+        "depth_range_scale" => {
+            let max = crate::tracegen::MAX_DEPTH_RANGE_SCALE;
+            spec.depth_range_scale = in_range(v, |x| (1.0..=max).contains(&x), &format!("a factor from 1 to {max}"))?;
+        }
+        "rod_radius_scale" | "rod_scale" => {
+            let max = crate::tracegen::MAX_ROD_SCALE;
+            let x = in_range(v, |x| x > 0.0 && x <= max, &format!("a factor in (0, {max}]"))?;
+            if key == "rod_scale" { spec.rod_scale = x } else { spec.rod_radius_scale = x }
+        }
         _ => return Err("not a trace field".into()),
     }
     Ok(())
@@ -143,6 +179,9 @@ pub fn get(spec: &TraceSpec, key: &str) -> String {
         "derived_roll" => spec.derived_roll_deg.to_string(),
         "path_offset_y" => spec.path_offset_y.to_string(),
         "depth_bits" => spec.depth_bits.to_string(),
+        "depth_range_scale" => spec.depth_range_scale.to_string(),
+        "rod_radius_scale" => spec.rod_radius_scale.to_string(),
+        "rod_scale" => spec.rod_scale.to_string(),
         _ => String::new(),
     }
 }
@@ -177,13 +216,16 @@ mod tests {
             };
             assert_eq!(real(&back).ok(), real(&v).ok(), "{k}");
         }
-        assert_eq!(TRACE_FIELDS.len(), 19);
+        assert_eq!(TRACE_FIELDS.len(), 22);
         for (k, v) in [
             ("derived_offset_x", 0.5),
             ("derived_offset_z", -1.0),
             ("derived_roll", 30.0),
             ("path_offset_y", -1.0),
             ("depth_bits", 8.0),
+            ("depth_range_scale", 1024.0),
+            ("rod_radius_scale", 0.25),
+            ("rod_scale", 4.0),
         ] {
             let val = if k == "depth_bits" { toml::Value::Integer(v as i64) } else { toml::Value::Float(v) };
             set(&mut s, k, &val).unwrap();
@@ -191,6 +233,8 @@ mod tests {
         }
         assert!(set(&mut s, "derived_roll", &toml::Value::Float(181.0)).unwrap_err().contains("[-180, 180]"));
         assert!(set(&mut s, "depth_bits", &toml::Value::Integer(25)).unwrap_err().contains("0 to 24"));
+        assert!(set(&mut s, "depth_range_scale", &toml::Value::Float(0.5)).unwrap_err().contains("from 1"));
+        assert!(set(&mut s, "rod_radius_scale", &toml::Value::Float(0.0)).unwrap_err().contains("(0, 50]"));
         assert!(s.validate().is_ok());
         assert!(set(&mut s, "width", &toml::Value::Integer(0)).unwrap_err().contains("pixels"));
         assert!(set(&mut s, "supersample", &toml::Value::Integer(5)).unwrap_err().contains("1 to 4"));
