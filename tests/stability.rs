@@ -5,6 +5,8 @@
 //! key. The failure-point rule is unit-tested in `src/chart/stability.rs`.
 
 use postwarp::report::csv;
+use postwarp::sweep::trace_fields::{STRESS_FIELDS, TRACE_FIELDS, get};
+use postwarp::sweep::trace_set::VariantSource;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -91,6 +93,17 @@ fn a_stress_sweep_writes_its_stability_chart() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let name = "stability.room.psnr_luma_db-vs-derived_roll_deg.png";
     assert_eq!(std::fs::read(charts.join(name)).unwrap(), std::fs::read(again.join(name)).unwrap());
+
+    // Rectangle overlap: mark-aa's axis-aligned rectangles around footprints
+    // turned by 45° cover about twice the area, so each destination sample
+    // is composited about twice as often; forward-splat has no such count.
+    let (h, rows) = rows.split_first().unwrap();
+    let col = |n: &str| h.iter().position(|c| c == n).unwrap();
+    let (method, roll, writes) = (col("method"), col("derived_roll_deg"), col("composite_writes_per_sample"));
+    let at = |m: &str, r: &str| rows.iter().find(|x| x[method] == m && x[roll] == r).unwrap()[writes].clone();
+    let (w0, w45): (f64, f64) = (at("mark-aa", "0").parse().unwrap(), at("mark-aa", "45").parse().unwrap());
+    assert!(w0 >= 1.0 && w45 > 1.5 * w0, "writes per sample {w0} at 0°, {w45} at 45°");
+    assert_eq!(at("forward-splat", "0"), "");
 }
 
 #[test]
@@ -106,8 +119,21 @@ fn bundled_stability_specs_vary_exactly_one_stress_key() {
         let spec = postwarp::sweep::Spec::load(&p).unwrap_or_else(|e| panic!("{name}: {e}"));
         let plan = postwarp::sweep::plan::plan(&spec).unwrap();
         assert!(plan.traces.len() >= 3, "{name}: at least 3 stress values");
+        // Exactly one generated-trace key takes more than one value, and it is a stress key.
+        let specs: Vec<&postwarp::tracegen::TraceSpec> = plan
+            .traces
+            .iter()
+            .map(|v| match &v.source {
+                VariantSource::Generated { spec, .. } => spec,
+                VariantSource::Existing { .. } => panic!("{name}: a stability sweep renders its traces"),
+            })
+            .collect();
+        let varying: Vec<&str> =
+            TRACE_FIELDS.iter().map(|f| f.0).filter(|k| specs.iter().any(|s| get(s, k) != get(specs[0], k))).collect();
+        assert_eq!(varying.len(), 1, "{name}: varies {varying:?}");
+        assert!(STRESS_FIELDS.contains(&varying[0]) || varying[0] == "prediction", "{name}: varies {varying:?}");
     }
-    assert!(n >= 5, "expected the bundled stability specs, found {n}");
+    assert!(n >= 9, "expected the bundled stability specs, found {n}");
 }
 
 #[test]

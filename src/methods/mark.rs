@@ -103,6 +103,8 @@ fn counters(path: Path, st: &GoldenStats) -> Counters {
         ("mesh_triangles", st.mesh_triangles),
         ("edge_splats", st.edge_splats),
         ("forced_merges", st.forced_merges),
+        ("composite_filled", st.composite_filled),
+        ("composite_writes", st.composite_filled + st.composite_nearer + st.composite_better + st.composite_lost),
     ] {
         extra.insert(k.to_string(), Value::from(v));
     }

@@ -110,6 +110,12 @@ pub struct Metrics {
     /// `mark-general`) (rectangles).
     #[serde(default)]
     pub kernels_over_limit_per_frame: Option<f64>,
+    /// Samples composited per destination sample filled, all frames
+    /// together, for `mark-aa` and `mark-general` (writes/sample): about
+    /// one per reference where rectangles tile without overlap; rectangle
+    /// overlap (roll, minification) raises it.
+    #[serde(default)]
+    pub composite_writes_per_sample: Option<f64>,
     /// Mean over frames of the median host time of `runs` runs, CPU
     /// methods (ms; not deterministic).
     pub host_ms_per_frame: Option<f64>,
@@ -147,6 +153,13 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
         "mean rectangles per frame whose kernel exceeded kernel_limit (mark-aa, mark-general)",
         true,
     ),
+    (
+        "composite_writes_per_sample",
+        "writes/sample",
+        "samples composited per destination sample filled (mark-aa, mark-general): about 1 per reference \
+         without overlap, more where rectangles overlap",
+        true,
+    ),
     ("host_ms_per_frame", "ms", "mean over frames of the median host time of `runs` runs (CPU methods)", false),
     ("cycles_per_frame", "cycles", "mean engine cycles per frame (hardware)", true),
     ("dram_read_bytes_per_frame", "bytes", "mean DRAM bytes read per frame (hardware)", true),
@@ -170,6 +183,15 @@ fn mean_counter(r: &Value, name: &str) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
+/// Sum over a method report's frames of counter `num` over the sum of
+/// counter `den`, if every frame has both and `den` is not 0.
+fn counter_ratio(r: &Value, num_name: &str, den_name: &str) -> Option<f64> {
+    let frames = r["frames"].as_array()?;
+    let sum = |name: &str| frames.iter().map(|f| num(&f["reconstruction"][name])).sum::<Option<f64>>();
+    let (n, d) = (sum(num_name)?, sum(den_name)?);
+    (d > 0.0).then(|| n / d)
+}
+
 impl Metrics {
     /// From a `postwarp golden --method` report.
     pub fn from_method_report(r: &Value) -> Metrics {
@@ -183,6 +205,7 @@ impl Metrics {
             primitives_per_frame: num(&m["primitives"]),
             host_ms_per_frame: num(&m["host_ms"]),
             kernels_over_limit_per_frame: mean_counter(r, "kernels_over_limit"),
+            composite_writes_per_sample: counter_ratio(r, "composite_writes", "composite_filled"),
             ..Metrics::default()
         }
     }
