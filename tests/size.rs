@@ -1,5 +1,6 @@
 //! `postwarp size` end to end on a tiny generated trace (room, 32x24, 2
-//! frames): the configuration it prints is loadable and meets the floor,
+//! frames), and once on the bundled `traces/slants` (first frame, 25 dB):
+//! the configuration it prints is loadable and meets the floor,
 //! one step smaller does not (one fragment or super-sampling fewer fails
 //! the floor; half the cache has capacity misses), the destination cache
 //! and tile size do not change the image, and bad flags are refused
@@ -54,6 +55,59 @@ fn col(head: &[String], name: &str) -> usize {
     head.iter().position(|h| h == name).unwrap_or_else(|| panic!("no column {name}"))
 }
 
+/// The checks of "one step smaller fails" on the `candidates.csv` of a
+/// successful `size` run in `out` with floor `floor` (dB): (a) the quality
+/// stage stopped at the first candidate meeting the floor, and every
+/// smaller one (one fragment fewer, a lower super-sampling) is under it;
+/// (b) one cache step smaller (half the tiles) than the chosen one has
+/// capacity misses, unless it is the engine's minimum of 8 tiles. Returns
+/// the number of quality-stage runs.
+fn assert_one_step_smaller_fails(out: &Path, floor: f64) -> usize {
+    let (head, rows) = table(out);
+    let c = |r: &Vec<String>, n: &str| r[col(&head, n)].clone();
+    let chosen = rows.iter().find(|r| c(r, "chosen") == "true").expect("a chosen row");
+    let quality: Vec<&Vec<String>> = rows.iter().filter(|r| c(r, "stage") == "quality").collect();
+    let (last, smaller) = quality.split_last().expect("quality-stage runs");
+    assert!(c(last, "psnr_luma_db").parse::<f64>().unwrap() >= floor);
+    assert_eq!(
+        (c(last, "supersample"), c(last, "max_fragments")),
+        (c(chosen, "supersample"), c(chosen, "max_fragments"))
+    );
+    for r in smaller {
+        assert!(c(r, "psnr_luma_db").parse::<f64>().unwrap() < floor, "{r:?}");
+        assert_eq!(c(r, "passes"), "false");
+    }
+    assert_eq!(c(chosen, "capacity_misses"), "0");
+    let tiles: u64 = c(chosen, "dest_cache_tiles").parse().unwrap();
+    if tiles > 8 {
+        let half = rows
+            .iter()
+            .find(|r| {
+                c(r, "stage") == "cache"
+                    && c(r, "tile_size_samples") == c(chosen, "tile_size_samples")
+                    && c(r, "dest_cache_tiles") == (tiles / 2).to_string()
+            })
+            .expect("the step below was tried");
+        assert!(c(half, "capacity_misses").parse::<u64>().unwrap() > 0, "{half:?}");
+    }
+    quality.len()
+}
+
+#[test]
+fn on_a_bundled_trace_the_configuration_one_step_smaller_fails_the_floor() {
+    let out = tempfile::tempdir().unwrap();
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("traces/slants");
+    let o = postwarp(&["size", s(&dir), "--min-psnr", "25", "--frames", "1", "--out", s(out.path())]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}{text}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        text.contains("smallest configuration") && text.contains("GB/s") && text.contains("cycles per frame"),
+        "{text}"
+    );
+    let runs = assert_one_step_smaller_fails(out.path(), 25.0);
+    assert!(runs >= 2, "the first quality candidate already passed: nothing smaller was shown to fail");
+}
+
 #[test]
 fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     let work = tempfile::tempdir().unwrap();
@@ -91,37 +145,17 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     assert_eq!(c(chosen, "dest_cache_bytes"), cfg.dest_cache_bytes.to_string());
     assert_eq!(c(chosen, "tile_size_samples"), cfg.tile_size.to_string());
     assert_eq!(c(chosen, "capacity_misses"), "0");
-    // (a) The quality stage stopped at the first candidate meeting the
-    // floor; every smaller one (one fragment fewer, a lower super-sampling) is under it.
-    let quality: Vec<&Vec<String>> = rows.iter().filter(|r| c(r, "stage") == "quality").collect();
-    assert_eq!(quality.len(), first_best + 1);
-    let last = quality.last().unwrap();
+    let quality_runs = assert_one_step_smaller_fails(&out, floor);
+    assert_eq!(quality_runs, first_best + 1);
+    let last = rows.iter().rfind(|r| c(r, "stage") == "quality").unwrap();
     assert_eq!(
         (c(last, "supersample"), c(last, "max_fragments")),
         (cfg.supersample.to_string(), cfg.max_fragments.to_string())
     );
-    assert!(c(last, "psnr_luma_db").parse::<f64>().unwrap() >= floor);
-    for r in &quality[..first_best] {
-        assert!(c(r, "psnr_luma_db").parse::<f64>().unwrap() < floor, "{r:?}");
-        assert_eq!(c(r, "passes"), "false");
-    }
     // Every cache-stage run made the same image (same quality, golden-identical).
     for r in rows.iter().filter(|r| c(r, "stage") == "cache") {
         assert_eq!(c(r, "psnr_luma_db"), c(last, "psnr_luma_db"));
         assert_eq!(c(r, "golden_identical_frames"), "2");
-    }
-    // (b) One cache step smaller (half the tiles) has capacity misses, unless
-    // the cache is already the engine's minimum of 8 tiles.
-    let tiles: u64 = c(chosen, "dest_cache_tiles").parse().unwrap();
-    if tiles > 8 {
-        let smaller = rows
-            .iter()
-            .find(|r| {
-                c(r, "tile_size_samples") == c(chosen, "tile_size_samples")
-                    && c(r, "dest_cache_tiles") == (tiles / 2).to_string()
-            })
-            .expect("the step below was tried");
-        assert!(c(smaller, "capacity_misses").parse::<u64>().unwrap() > 0, "{smaller:?}");
     }
     // Some tile size needed more than the minimum, so (b) is tested somewhere.
     assert!(
