@@ -158,39 +158,10 @@ impl Reconstruction for ForwardSplat {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::{DQuat, DVec3};
-    use postwarp_rtl::{Camera, Intrinsics, Pose};
+    use crate::methods::test_frames::cam;
 
-    /// A `w x h`-pixel camera at `x` on the x axis looking down +z.
-    fn cam(w: u32, h: u32, x: f64) -> Camera {
-        Camera {
-            intrinsics: Intrinsics {
-                width: w,
-                height: h,
-                fx: 50.0,
-                fy: 50.0,
-                cx: 0.5 * (w as f64 - 1.0),
-                cy: 0.5 * (h as f64 - 1.0),
-            },
-            pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
-        }
-    }
-
-    /// A sample image where `depth(x, y)` gives Z (or `None` for no surface)
-    /// and the colour encodes the position.
     fn image(w: u32, h: u32, depth: impl Fn(u32, u32) -> Option<f32>) -> SampleImage {
-        let mut img = SampleImage::empty(w, h);
-        for y in 0..h {
-            for x in 0..w {
-                let i = img.index(x, y);
-                img.colour[i] = [x as f32 / w as f32, y as f32 / h as f32, 0.5];
-                if let Some(z) = depth(x, y) {
-                    img.z[i] = z;
-                    img.valid.set(i, true);
-                }
-            }
-        }
-        img
+        crate::methods::test_frames::image(w, h, |_, _| 0.5, depth)
     }
 
     #[test]

@@ -36,6 +36,8 @@ pub mod smit_point;
 pub mod smit_quad;
 pub mod smit_warp;
 pub mod stretch;
+#[cfg(test)]
+mod test_frames;
 
 use crate::golden::config::GoldenConfig;
 use crate::golden::planes::DestPlanes;

@@ -223,22 +223,8 @@ impl Reconstruction for RubberSheet {
 mod tests {
     use super::*;
     use crate::methods::Prepared;
-    use glam::{DQuat, DVec3};
-    use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose};
-
-    fn cam(w: u32, h: u32, x: f64) -> Camera {
-        Camera {
-            intrinsics: Intrinsics {
-                width: w,
-                height: h,
-                fx: 50.0,
-                fy: 50.0,
-                cx: 0.5 * (w as f64 - 1.0),
-                cy: 0.5 * (h as f64 - 1.0),
-            },
-            pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
-        }
-    }
+    use crate::methods::test_frames::cam;
+    use postwarp_rtl::FrameCommands;
 
     #[test]
     fn identity_warp_covers_the_interior_and_reproduces_it() {

@@ -447,37 +447,12 @@ impl Reconstruction for Schollmeyer {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::methods::test_frames::cam;
     use crate::methods::{Input, NoFill, render};
-    use glam::{DQuat, DVec3};
-    use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose};
-
-    fn cam(w: u32, h: u32, x: f64) -> Camera {
-        Camera {
-            intrinsics: Intrinsics {
-                width: w,
-                height: h,
-                fx: 50.0,
-                fy: 50.0,
-                cx: 0.5 * (w as f64 - 1.0),
-                cy: 0.5 * (h as f64 - 1.0),
-            },
-            pose: Pose { position: DVec3::new(x, 0.0, 0.0), orientation: DQuat::IDENTITY },
-        }
-    }
+    use postwarp_rtl::FrameCommands;
 
     fn image(w: u32, h: u32, depth: impl Fn(u32, u32) -> Option<f32>) -> SampleImage {
-        let mut img = SampleImage::empty(w, h);
-        for y in 0..h {
-            for x in 0..w {
-                let i = img.index(x, y);
-                img.colour[i] = [x as f32 / w as f32, y as f32 / h as f32, ((x * 7 + y * 3) % 5) as f32 / 5.0];
-                if let Some(z) = depth(x, y) {
-                    img.z[i] = z;
-                    img.valid.set(i, true);
-                }
-            }
-        }
-        img
+        crate::methods::test_frames::image(w, h, |x, y| ((x * 7 + y * 3) % 5) as f32 / 5.0, depth)
     }
 
     fn run(m: &Schollmeyer, cmd: &FrameCommands, refs: &[&SampleImage]) -> crate::methods::MethodFrame {
