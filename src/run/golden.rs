@@ -15,8 +15,7 @@
 
 use crate::golden::config::GoldenConfig;
 use crate::golden::frame::{GoldenFrame, PreparedReference, Warper, prepare_reference};
-use crate::metrics::{MetricInput, Quality, evaluate};
-use crate::report::images::{write_diff_heatmap, write_hole_mask};
+use crate::report::images::write_hole_mask;
 use crate::report::{frame_entry, mean_entry, table};
 use crate::trace::{SlopeSource, Trace, write_reference_image};
 use anyhow::Context;
@@ -84,29 +83,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         let t = Instant::now();
         let frame = warper.warp_frame(&cmd, &refs, cfg);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
-        let quality = match trace.load_truth(k)? {
-            None => None,
-            Some(truth) => {
-                let q = evaluate(&MetricInput {
-                    width: w,
-                    height: h,
-                    image: &frame.pixels,
-                    truth: &truth.colour,
-                    known: &truth.known,
-                    covered: Some(&frame.covered),
-                })?;
-                write_diff_heatmap(
-                    &out.join(format!("diff-{k:04}.png")),
-                    w,
-                    h,
-                    &frame.pixels,
-                    &truth.colour,
-                    &truth.known,
-                    64.0,
-                )?;
-                Some(q)
-            }
-        };
+        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out))?;
         write_frame_files(out, k, &frame, w, h, ss)?;
         frames.push(frame_entry(k, quality.as_ref(), host_ms, stats_json(&frame)));
         prepared.retain(|r, _| last_use[r] > k);
@@ -145,16 +122,4 @@ fn write_frame_files(out: &Path, k: usize, f: &GoldenFrame, w: u32, h: u32, ss: 
     write_reference_image(&out.join(format!("frame-{k:04}.exr")), &frame_samples(f), SlopeSource::Exact)?;
     write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &f.samples.real, &f.samples.hole)?;
     Ok(())
-}
-
-/// Scores of a frame, for callers that already have a golden frame.
-pub fn score(frame: &GoldenFrame, truth: &crate::trace::TruthImage) -> anyhow::Result<Quality> {
-    Ok(evaluate(&MetricInput {
-        width: truth.width,
-        height: truth.height,
-        image: &frame.pixels,
-        truth: &truth.colour,
-        known: &truth.known,
-        covered: Some(&frame.covered),
-    })?)
 }

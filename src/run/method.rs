@@ -18,8 +18,7 @@
 //!    nothing and returns the same report (`postwarp sweep`).
 
 use crate::methods::{self, HoleFill, Input, MethodFrame, Prepared, Reconstruction};
-use crate::metrics::{MetricInput, evaluate};
-use crate::report::images::{write_diff_heatmap, write_hole_mask};
+use crate::report::images::write_hole_mask;
 use crate::report::{frame_entry, mean_entry, table};
 use crate::trace::Trace;
 use anyhow::Context;
@@ -118,31 +117,7 @@ pub fn measure_method(
             }
         }
         let frame = frame.expect("runs >= 1");
-        let quality = match trace.load_truth(k)? {
-            None => None,
-            Some(truth) => {
-                let q = evaluate(&MetricInput {
-                    width: w,
-                    height: h,
-                    image: &frame.pixels,
-                    truth: &truth.colour,
-                    known: &truth.known,
-                    covered: Some(&frame.covered),
-                })?;
-                if let Some(out) = out {
-                    write_diff_heatmap(
-                        &out.join(format!("diff-{k:04}.png")),
-                        w,
-                        h,
-                        &frame.pixels,
-                        &truth.colour,
-                        &truth.known,
-                        64.0,
-                    )?;
-                }
-                Some(q)
-            }
-        };
+        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, out)?;
         if let Some(out) = out {
             crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
             write_hole_mask(

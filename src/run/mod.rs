@@ -6,5 +6,6 @@ pub mod golden;
 pub mod hw_config;
 pub mod hw_config_toml;
 pub mod method;
+pub mod score;
 pub mod simulate;
 pub mod timing;

@@ -20,9 +20,7 @@
 
 use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
 use crate::metrics::psnr::psnr_rgb;
-use crate::metrics::{MetricInput, evaluate};
 use crate::picture::{to_srgb8, write_png};
-use crate::report::images::write_diff_heatmap;
 use crate::run::hw_config::golden_config_for;
 use crate::run::hw_config_toml::to_json;
 use crate::trace::Trace;
@@ -100,30 +98,9 @@ pub fn measure_hardware(
         let differing = differing_samples(&hw, &golden.samples);
         let all = BitVec::repeat(true, hw.pixels.len());
         let psnr = psnr_rgb(&pixels8(&hw.pixels), &pixels8(&golden.pixels), &all);
-        let vs_truth = match trace.load_truth(k)? {
+        let vs_truth = match super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, out)? {
             None => Value::Null,
-            Some(truth) => {
-                let q = evaluate(&MetricInput {
-                    width: w,
-                    height: h,
-                    image: &hw.pixels,
-                    truth: &truth.colour,
-                    known: &truth.known,
-                    covered: Some(&hw.covered),
-                })?;
-                if let Some(out) = out {
-                    write_diff_heatmap(
-                        &out.join(format!("diff-{k:04}.png")),
-                        w,
-                        h,
-                        &hw.pixels,
-                        &truth.colour,
-                        &truth.known,
-                        64.0,
-                    )?;
-                }
-                serde_json::to_value(q)?
-            }
+            Some(q) => serde_json::to_value(q)?,
         };
         if let Some(out) = out {
             write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels)?;

@@ -1,0 +1,50 @@
+//! Scoring one derived frame against its ground truth, the same way for
+//! every engine (`golden`, `golden --method`, `simulate`): the metrics of
+//! `docs/metrics.md` over the trace's known pixels, and, when an output
+//! directory is given, the difference heat-map `diff-<k>.png` (saturating
+//! at a difference of [`HEATMAP_FULL_SCALE`] 8-bit sRGB codes).
+//!
+//! Frames without ground truth score `None` and write no heat-map.
+
+use crate::metrics::{MetricInput, Quality, evaluate};
+use crate::report::images::write_diff_heatmap;
+use crate::trace::Trace;
+use bitvec::vec::BitVec;
+use std::path::Path;
+
+/// Difference (8-bit sRGB codes) at which the heat-map saturates.
+pub const HEATMAP_FULL_SCALE: f64 = 64.0;
+
+/// Score derived frame `k` of `trace`, a `w x h` image `pixels` whose
+/// `covered` bits mark pixels covered by real samples, against the trace's
+/// truth; with `out`, also write `out/diff-<k>.png`.
+pub fn score_frame(
+    trace: &Trace,
+    k: usize,
+    (w, h): (u32, u32),
+    pixels: &[[f32; 3]],
+    covered: &BitVec,
+    out: Option<&Path>,
+) -> anyhow::Result<Option<Quality>> {
+    let Some(truth) = trace.load_truth(k)? else { return Ok(None) };
+    let q = evaluate(&MetricInput {
+        width: w,
+        height: h,
+        image: pixels,
+        truth: &truth.colour,
+        known: &truth.known,
+        covered: Some(covered),
+    })?;
+    if let Some(out) = out {
+        write_diff_heatmap(
+            &out.join(format!("diff-{k:04}.png")),
+            w,
+            h,
+            pixels,
+            &truth.colour,
+            &truth.known,
+            HEATMAP_FULL_SCALE,
+        )?;
+    }
+    Ok(Some(q))
+}
