@@ -138,3 +138,18 @@ fn a_sample_leaves_the_transform_exactly_latency_cycles_later() {
     }
     assert!(cycles(1) < base);
 }
+
+#[test]
+fn fetch_waits_for_blocks_are_counted_through_skipped_cycles() {
+    let (cmd, imgs) = room_frame(0);
+    // A source cache of a few blocks: the fetch unit waits on DRAM often,
+    // and the engine skips the idle cycles of each wait.
+    let cfg = EngineConfig { source_cache_bytes: 4 * 1024, ..whole_frame_cache(&cmd) };
+    let out = run(&cfg, &cmd, &imgs);
+    let (wait, fetch) = (out.stats.source_cache.wait_cycles, out.stats.units[0]);
+    assert!(out.stats.source_cache.block_reads > 100, "the cache thrashes");
+    // Every cycle the fetch unit found its block absent is a stall (or a
+    // busy cycle that ended on one); waiting is what it mostly does here.
+    assert!(wait <= fetch.stall + fetch.busy, "{wait} > {fetch:?}");
+    assert!(wait * 10 >= fetch.stall * 9, "block waits {wait} are most of the fetch stalls {}", fetch.stall);
+}

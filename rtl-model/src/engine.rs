@@ -549,7 +549,8 @@ impl Machine {
 
     /// Account one cycle's unit states and move to the next cycle, or jump
     /// to `next_event` when nothing moved (module doc, "Skipping").
-    fn advance(&mut self, states: &[State; 7], moved: bool, next_event: Option<Cycle>) {
+    /// Returns the number of cycles accounted (1, or the skipped span).
+    fn advance(&mut self, states: &[State; 7], moved: bool, next_event: Option<Cycle>) -> u64 {
         let mut span = 1;
         if !moved && let Some(t) = next_event.filter(|&t| t > self.now + 1) {
             span = t - self.now;
@@ -562,6 +563,7 @@ impl Machine {
         }
         self.now += span;
         self.dram.tick(self.now);
+        span
     }
 
     /// A tile access by a unit: returns true when the tile is resident.
@@ -1084,6 +1086,8 @@ impl Machine {
             // 8. Fetch.
             let mut pushed = 0;
             let mut f_state = State::Idle;
+            // The fetch unit found the next sample's block absent this cycle.
+            let mut block_wait = false;
             while fi < sched.fetch.len() {
                 // Prefetch this interval's and the next one's blocks.
                 while prefetched < (fi + 2).min(sched.fetch.len()) {
@@ -1128,7 +1132,7 @@ impl Machine {
                             tag: TAG_BLOCK | b as u64,
                         });
                     }
-                    src.counters.wait_cycles += 1;
+                    block_wait = true;
                     f_state = State::Stall;
                     break;
                 }
@@ -1177,7 +1181,11 @@ impl Machine {
                 }
                 next
             };
-            self.advance(&st, moved, next);
+            let span = self.advance(&st, moved, next);
+            if block_wait {
+                // Skipped cycles count too: the fetch unit waits through them.
+                src.counters.wait_cycles += span;
+            }
         }
         self.stats.source_cache.block_reads += src.counters.block_reads;
         self.stats.source_cache.evictions += src.counters.evictions;

@@ -46,7 +46,8 @@ pub struct SourceCacheCounters {
     pub block_reads: u64,
     /// Blocks evicted to make room.
     pub evictions: u64,
-    /// Cycles the fetch unit waited for a block.
+    /// Cycles the fetch unit waited for a block, cycles the engine
+    /// skipped while it waited included.
     pub wait_cycles: u64,
 }
 
