@@ -154,6 +154,30 @@ fn a_resumed_sweep_recomputes_only_missing_points() {
     // Nothing missing: nothing computed.
     let out = sweep(&tiny(), d.path(), 1);
     assert!(out.contains(&format!("{n} points, {n} skipped")) && out.contains("0 computed"), "{out}");
+
+    // A point stored, or a trace rendered, by another build of the program
+    // is made again (its key is the same; the code may not be).
+    let text = std::fs::read_to_string(&files[5]).unwrap();
+    // The binary's build identity, as it stored it (this test process is another executable).
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let build = v["build"].as_str().expect("the point file names its build").to_string();
+    assert_eq!(build.len(), 16);
+    let stored_by = |t: &str| t.replace(&format!("\"build\": \"{build}\""), "\"build\": \"0000000000000000\"");
+    assert_ne!(stored_by(&text), text);
+    std::fs::write(&files[5], stored_by(&text)).unwrap();
+    let traces: Vec<PathBuf> = std::fs::read_dir(d.path().join("traces")).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(traces.len(), 1, "the generated slants trace");
+    assert_eq!(std::fs::read_to_string(traces[0].join("built-by")).unwrap(), build);
+    let out = sweep(&tiny(), d.path(), 1);
+    assert!(
+        out.contains("1 computed; 0 traces generated") && out.contains("1 stored points were made by another build"),
+        "{out}"
+    );
+    std::fs::write(traces[0].join("built-by"), "0000000000000000").unwrap();
+    let out = sweep(&tiny(), d.path(), 1);
+    assert!(out.contains("1 traces generated"), "{out}");
+    assert_eq!(std::fs::read_to_string(traces[0].join("built-by")).unwrap(), build);
+    assert_eq!(without_host_time(&rows(d.path())), without_host_time(&csv_before), "same results");
 }
 
 fn spec_error(text: &str) -> String {

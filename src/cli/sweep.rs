@@ -38,6 +38,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         opts.jobs,
         start.elapsed().as_secs_f64()
     );
+    if o.stale > 0 {
+        println!(
+            "{} stored points were made by another build of postwarp (or under another key) and were run again",
+            o.stale
+        );
+    }
     println!("results: {}", o.results.display());
     println!("charts: {} files in {}", o.charts.len(), a.out.join("charts").display());
     Ok(())

@@ -18,8 +18,10 @@
 //!    `charts/*.svg|png`, and with `images = true` `images/<hash>/` (the
 //!    point's frames and report). Every file is written to a temporary
 //!    name and renamed.
-//! 2. Resumable: a point whose file exists with the same key is loaded,
-//!    not run again ([`Outcome::skipped`]).
+//! 2. Resumable: a point whose file exists with the same key, stored by
+//!    the same build ([`build::build_id`]), is loaded, not run again
+//!    ([`Outcome::skipped`]); one stored by another build is run again
+//!    ([`Outcome::stale`]), and so is a generated trace rendered by one.
 //! 3. Deterministic: every column of `results.csv` except `host_ms_per_frame`
 //!    is the same whatever `jobs` is; rows follow the plan, not
 //!    completion. Host time is measured with one timed section at a time
@@ -28,6 +30,7 @@
 //! 4. A failing point does not stop the others; the sweep then reports
 //!    every failure, writes no `results.csv`, and a rerun resumes.
 
+pub mod build;
 pub mod hash;
 pub mod knobs;
 pub mod plan;
@@ -71,6 +74,9 @@ pub struct Outcome {
     pub skipped: usize,
     /// Points run now.
     pub computed: usize,
+    /// Of those, points whose file in `points/` was not used: stored by
+    /// another build of the program (or under another key).
+    pub stale: usize,
     /// Traces rendered now (generated traces not found in `traces/`).
     pub traces_generated: usize,
     /// `results.csv`.
@@ -113,7 +119,7 @@ pub fn run_sweep(spec: &Spec, out: &Path, opts: &Options) -> anyhow::Result<Outc
         .filter(|v| match &v.source {
             trace_set::VariantSource::Generated { given, file, spec: ts } => {
                 trace_set::generated_hash(given, file.as_deref(), ts)
-                    .map(|h| !out.join("traces").join(h).join("postwarp.trace").is_file())
+                    .map(|h| trace_set::needs_render(&out.join("traces").join(h)))
                     .unwrap_or(true)
             }
             trace_set::VariantSource::Existing { .. } => false,
@@ -148,6 +154,8 @@ pub fn run_sweep(spec: &Spec, out: &Path, opts: &Options) -> anyhow::Result<Outc
 
     let mut metrics: Vec<Option<point::Metrics>> = keyed.iter().map(|k| store::load(out, &k.hash, &k.key)).collect();
     let skipped = metrics.iter().filter(|m| m.is_some()).count();
+    let stale =
+        keyed.iter().zip(&metrics).filter(|(k, m)| m.is_none() && store::point_file(out, &k.hash).is_file()).count();
     let todo: Vec<usize> = (0..keyed.len()).filter(|&i| metrics[i].is_none()).collect();
     let pbar = bar(todo.len(), "sweep");
     let done: Vec<(usize, anyhow::Result<point::Metrics>)> = pool.install(|| {
@@ -202,5 +210,5 @@ pub fn run_sweep(spec: &Spec, out: &Path, opts: &Options) -> anyhow::Result<Outc
     crate::io_util::write_bytes_atomically(&results, csv.as_bytes())
         .with_context(|| format!("writing {}", results.display()))?;
     let charts = crate::chart::write_charts(&csv, &out.join("charts"))?;
-    Ok(Outcome { points: keyed.len(), skipped, computed, traces_generated: missing, results, charts })
+    Ok(Outcome { points: keyed.len(), skipped, computed, stale, traces_generated: missing, results, charts })
 }

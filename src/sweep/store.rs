@@ -8,6 +8,8 @@
 //!    expected (a hash collision or a stale format is recomputed).
 //! 2. Files are written atomically: a file under its final name is a
 //!    finished point.
+//! 3. The file records the build that made it ([`super::build::build_id`]);
+//!    it is used only by the same build.
 
 use super::point::Metrics;
 use anyhow::Context;
@@ -24,7 +26,7 @@ pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
     let text = std::fs::read_to_string(point_file(out, hash)).ok()?;
     let v: Value = serde_json::from_str(&text).ok()?;
     let stored_key = serde_json::to_string(v.get("key")?).ok()?;
-    if stored_key != key {
+    if stored_key != key || v.get("build").and_then(Value::as_str) != Some(super::build::build_id()) {
         return None;
     }
     serde_json::from_value(v.get("metrics")?.clone()).ok()
@@ -33,7 +35,8 @@ pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
 /// Store a finished point.
 pub fn save(out: &Path, hash: &str, key: &str, m: &Metrics) -> anyhow::Result<()> {
     let key: Value = serde_json::from_str(key).context("point key")?;
-    let text = serde_json::to_string_pretty(&json!({"key": key, "metrics": m}))? + "\n";
+    let text =
+        serde_json::to_string_pretty(&json!({"key": key, "build": super::build::build_id(), "metrics": m}))? + "\n";
     let path = point_file(out, hash);
     crate::io_util::write_bytes_atomically(&path, text.as_bytes())
         .with_context(|| format!("writing {}", path.display()))
@@ -60,6 +63,12 @@ mod tests {
         assert_eq!(load(dir.path(), "h", key), Some(m));
         assert_eq!(load(dir.path(), "h", r#"{"format":1,"trace":"cd"}"#), None);
         assert_eq!(load(dir.path(), "nothing", key), None);
+        // Another build's file is not used.
+        let text = std::fs::read_to_string(point_file(dir.path(), "h")).unwrap();
+        let other = text.replace(super::super::build::build_id(), "0123456789abcdef");
+        assert_ne!(text, other);
+        std::fs::write(point_file(dir.path(), "h"), other).unwrap();
+        assert_eq!(load(dir.path(), "h", key), None);
         std::fs::write(point_file(dir.path(), "h"), "{ torn").unwrap();
         assert_eq!(load(dir.path(), "h", key), None);
     }

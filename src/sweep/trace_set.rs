@@ -11,7 +11,8 @@
 //! 2. A generated trace's directory is named by a hash of the scene's text
 //!    and every [`TraceSpec`] field. It is rendered into a temporary
 //!    directory and renamed into place, so a directory under its final
-//!    name is complete and is reused as it is.
+//!    name is complete; it is reused as it is if the same build rendered
+//!    it (`built-by` holds [`super::build::build_id`]), else rendered again.
 //! 3. An existing trace with `frames = N` uses its first N derived frames.
 
 use super::hash::{Fnv, trace_identity};
@@ -211,6 +212,16 @@ pub fn generated_hash(given: &str, file: Option<&Path>, spec: &TraceSpec) -> any
     Ok(h.hex())
 }
 
+/// The file of a generated trace's directory naming the build that rendered it.
+const BUILT_BY: &str = "built-by";
+
+/// True if the generated trace directory `dir` must be rendered: it has no
+/// manifest, or another build rendered it (module rule 2).
+pub fn needs_render(dir: &Path) -> bool {
+    !dir.join("postwarp.trace").is_file()
+        || std::fs::read_to_string(dir.join(BUILT_BY)).ok().as_deref() != Some(super::build::build_id())
+}
+
 /// Make `v` ready: open it, or render it into `out/traces/<hash>/` unless
 /// it is there already (module rule 2).
 pub fn materialize(v: &TraceVariant, out: &Path) -> anyhow::Result<ReadyTrace> {
@@ -219,7 +230,7 @@ pub fn materialize(v: &TraceVariant, out: &Path) -> anyhow::Result<ReadyTrace> {
         VariantSource::Generated { given, file, spec } => {
             let hash = generated_hash(given, file.as_deref(), spec)?;
             let dir = out.join("traces").join(&hash);
-            if !dir.join("postwarp.trace").is_file() {
+            if needs_render(&dir) {
                 let tmp = out.join("traces").join(format!("{hash}.tmp-{}", std::process::id()));
                 if tmp.exists() {
                     std::fs::remove_dir_all(&tmp).with_context(|| format!("removing {}", tmp.display()))?;
@@ -231,6 +242,9 @@ pub fn materialize(v: &TraceVariant, out: &Path) -> anyhow::Result<ReadyTrace> {
                 let command = format!("postwarp sweep (trace {}, scene {given}, {spec:?})", v.label);
                 crate::tracegen::make_trace_with(&scene, spec, &tmp, &command, false)
                     .with_context(|| format!("rendering trace {}", v.label))?;
+                let built_by = tmp.join(BUILT_BY);
+                std::fs::write(&built_by, super::build::build_id())
+                    .with_context(|| format!("writing {}", built_by.display()))?;
                 if dir.exists() {
                     // A directory without a manifest is an older, unfinished one.
                     std::fs::remove_dir_all(&dir).with_context(|| format!("removing {}", dir.display()))?;
