@@ -56,12 +56,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let ss = trace.display.supersample;
     let (w, h) = (trace.display.width, trace.display.height);
-    let mut last_use = HashMap::new();
-    for (k, f) in trace.derived.iter().enumerate() {
-        for &r in &f.references {
-            last_use.insert(r, k);
-        }
-    }
+    let last_use = trace.last_use();
     let mut prepared: HashMap<usize, PreparedReference> = HashMap::new();
     let mut slopes = vec![Value::Null; trace.references.len()];
     let mut prepare_ms = 0.0;

@@ -76,12 +76,7 @@ pub fn measure_method(
     }
     let ss = trace.display.supersample;
     let (w, h) = (trace.display.width, trace.display.height);
-    let mut last_use = HashMap::new();
-    for (k, f) in trace.derived.iter().enumerate() {
-        for &r in &f.references {
-            last_use.insert(r, k);
-        }
-    }
+    let last_use = trace.last_use();
     let mut loaded: HashMap<usize, (postwarp_rtl::SampleImage, Prepared)> = HashMap::new();
     let mut prepare_ms = 0.0;
     let mut frames = Vec::new();

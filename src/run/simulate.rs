@@ -70,12 +70,7 @@ pub fn measure_hardware(
         std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     }
     let (w, h) = (trace.display.width, trace.display.height);
-    let mut last_use = HashMap::new();
-    for (k, f) in trace.derived.iter().enumerate() {
-        for &r in &f.references {
-            last_use.insert(r, k);
-        }
-    }
+    let last_use = trace.last_use();
     let mut refs: HashMap<usize, (HwReference, PreparedReference)> = HashMap::new();
     let mut warper = Warper::new();
     let mut frames = Vec::new();

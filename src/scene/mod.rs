@@ -249,7 +249,17 @@ impl Scene {
                     world::Shape::Cylinder(c.with_radius_scaled(radius_scale).scaled_about(centre, scale));
             }
         }
-        Scene { world: world::World::new(self.world.materials.clone(), objects), ..self.clone() }
+        Scene {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            spline: self.spline.clone(),
+            tracked: self.tracked.clone(),
+            background: self.background,
+            to_light: self.to_light,
+            ambient: self.ambient,
+            world: world::World::new(self.world.materials.clone(), objects),
+            rods: self.rods.clone(),
+        }
     }
 
     /// Number of objects (object ids run from 1 to this).

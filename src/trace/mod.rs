@@ -185,6 +185,19 @@ impl Trace {
             .map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
     }
 
+    /// For each reference frame, the last derived frame that warps it
+    /// (references no derived frame uses are absent): a runner drops a
+    /// loaded reference once past it.
+    pub fn last_use(&self) -> std::collections::HashMap<usize, usize> {
+        let mut last = std::collections::HashMap::new();
+        for (k, f) in self.derived.iter().enumerate() {
+            for &r in &f.references {
+                last.insert(r, k);
+            }
+        }
+        last
+    }
+
     /// Load and check derived frame `i`'s ground truth, if it has one.
     pub fn load_truth(&self, i: usize) -> Result<Option<TruthImage>, TraceError> {
         let Some(p) = &self.derived[i].truth else {
