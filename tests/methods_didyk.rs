@@ -5,9 +5,11 @@
 //! preference, and the exact shift of a fronto-parallel plane.
 
 use glam::{DQuat, DVec3};
+use postwarp::methods::didyk::grid::{
+    Cell, DisparityMipMap, PixelDisparity, adaptive_grid, pixel_disparity, top_level,
+};
+use postwarp::methods::didyk::inpaint::DidykInpaint;
 use postwarp::methods::didyk::{Didyk, DidykParams, TextureFilter, VertexDepths, WarpedLayer, warp_reference};
-use postwarp::methods::didyk_grid::{Cell, DisparityMipMap, PixelDisparity, adaptive_grid, pixel_disparity, top_level};
-use postwarp::methods::didyk_inpaint::DidykInpaint;
 use postwarp::methods::{Input, MethodFrame, NoFill, Prepared, Reconstruction, render as run_method};
 use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose, SampleImage, WarpSetup};
 

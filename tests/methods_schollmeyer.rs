@@ -5,9 +5,9 @@
 //! piecewise-planar depth images.
 
 use postwarp::golden::planes::DestPlanes;
-use postwarp::methods::low_pass_fill::LowPass;
-use postwarp::methods::schollmeyer_grid::{Grid, Schollmeyer};
-use postwarp::methods::schollmeyer_quadtree::{Cell, QuadtreeParams, Reduction, estimate};
+use postwarp::methods::schollmeyer::grid::{Grid, Schollmeyer};
+use postwarp::methods::schollmeyer::low_pass_fill::LowPass;
+use postwarp::methods::schollmeyer::quadtree::{Cell, QuadtreeParams, Reduction, estimate};
 use postwarp::methods::{self, HoleFill, Input, NoFill, Prepared, Reconstruction};
 use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 use proptest::prelude::*;

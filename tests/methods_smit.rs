@@ -9,11 +9,12 @@ mod common;
 use common::{Layer, at_x, camera, grey_stripes, render};
 use glam::{DQuat, DVec3};
 use postwarp::golden::planes::DestPlanes;
-use postwarp::methods::smit_errors::{Label, labels};
-use postwarp::methods::smit_mesh::SmitMesh;
-use postwarp::methods::smit_point::{SmitPoint, footprint_extent};
-use postwarp::methods::smit_quad::SmitQuad;
-use postwarp::methods::smit_warp::warp_frame;
+use postwarp::methods::smit::errors::{Label, labels};
+use postwarp::methods::smit::geometry::footprint_extent;
+use postwarp::methods::smit::mesh::SmitMesh;
+use postwarp::methods::smit::point::SmitPoint;
+use postwarp::methods::smit::quad::SmitQuad;
+use postwarp::methods::smit::warp::warp_frame;
 use postwarp::methods::{self, Counters, Input, NoFill, Prepared, Reconstruction};
 use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 

@@ -20,22 +20,12 @@
 //! 3. `primitives` counts what the method draws (splats, quads, triangles,
 //!    rectangles); [`MethodInfo::primitive`] names the unit.
 
+pub mod baselines;
 pub mod didyk;
-pub mod didyk_grid;
-pub mod didyk_inpaint;
-pub mod forward_splat;
-pub mod low_pass_fill;
+pub mod hole_fills;
 pub mod mark;
-pub mod pull_push;
-pub mod rubber_sheet;
-pub mod schollmeyer_grid;
-pub mod schollmeyer_quadtree;
-pub mod smit_errors;
-pub mod smit_mesh;
-pub mod smit_point;
-pub mod smit_quad;
-pub mod smit_warp;
-pub mod stretch;
+pub mod schollmeyer;
+pub mod smit;
 #[cfg(test)]
 mod test_frames;
 
@@ -47,7 +37,7 @@ use postwarp_rtl::{FrameCommands, SampleImage};
 use serde_json::{Map, Value};
 use std::any::Any;
 
-pub use forward_splat::{ForwardSplatFrame, ForwardSplatStats, forward_splat};
+pub use baselines::forward_splat::{ForwardSplatFrame, ForwardSplatStats, forward_splat};
 
 /// Name, description and source of a reconstruction or a hole fill.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,17 +160,17 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
     vec![
         Box::new(mark::MarkAa::default()),
         Box::new(mark::MarkGeneral::default()),
-        Box::new(forward_splat::ForwardSplat),
-        Box::new(rubber_sheet::RubberSheet),
+        Box::new(baselines::forward_splat::ForwardSplat),
+        Box::new(baselines::rubber_sheet::RubberSheet),
         Box::new(didyk::Didyk::single()),
         Box::new(didyk::Didyk::two_ref()),
-        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Cross)),
-        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Partial)),
-        Box::new(schollmeyer_grid::Schollmeyer::new(schollmeyer_quadtree::Reduction::Irregular)),
-        Box::new(smit_point::SmitPoint::default()),
-        Box::new(smit_quad::SmitQuad::default()),
-        Box::new(smit_mesh::SmitMesh::default()),
-        Box::new(smit_mesh::SmitMesh::connected()),
+        Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Cross)),
+        Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Partial)),
+        Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Irregular)),
+        Box::new(smit::point::SmitPoint::default()),
+        Box::new(smit::quad::SmitQuad::default()),
+        Box::new(smit::mesh::SmitMesh::default()),
+        Box::new(smit::mesh::SmitMesh::connected()),
     ]
 }
 
@@ -189,10 +179,10 @@ pub fn hole_fills() -> Vec<Box<dyn HoleFill>> {
     vec![
         Box::new(NoFill),
         Box::new(mark::Epipolar),
-        Box::new(stretch::Stretch),
-        Box::new(pull_push::PullPush),
-        Box::new(didyk_inpaint::DidykInpaint),
-        Box::new(low_pass_fill::LowPass),
+        Box::new(hole_fills::stretch::Stretch),
+        Box::new(hole_fills::pull_push::PullPush),
+        Box::new(didyk::inpaint::DidykInpaint),
+        Box::new(schollmeyer::low_pass_fill::LowPass),
     ]
 }
 

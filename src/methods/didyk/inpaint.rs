@@ -25,8 +25,8 @@
 //!
 //! Not modelled: the GPU's actual random choice (any neighbour would do).
 
-use super::{Counters, HoleFill, Input, MethodInfo};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, HoleFill, Input, MethodInfo};
 use serde_json::{Map, json};
 
 /// The `didyk-inpaint` hole fill.

@@ -28,9 +28,9 @@
 //!
 //! [`ReferenceWarp`]: postwarp_rtl::ReferenceWarp
 
-use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
+use crate::methods::{Counters, Input, MethodInfo, Reconstruction};
 use bitvec::vec::BitVec;
 use postwarp_rtl::{FrameCommands, SampleImage, WarpSetup};
 use serde::Serialize;

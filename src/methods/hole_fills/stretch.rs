@@ -57,8 +57,8 @@
 //! eight-sheet single pass of a hardware implementation (here a per-hole
 //! march, cost proportional to hole size times distance), any blur.
 
-use super::{Counters, HoleFill, Input, MethodInfo};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, HoleFill, Input, MethodInfo};
 use glam::DVec2;
 use postwarp_rtl::camera::{Epipole, EpipoleKind};
 use serde_json::{Map, json};

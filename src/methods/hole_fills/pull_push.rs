@@ -2,7 +2,7 @@
 //! Lumigraph*, SIGGRAPH 1996, §3.3 "pull-push"; also called push-pull):
 //! the generic scattered-data fill a 3D warp can fall back on, blind to
 //! depth and to the epipolar geometry. A baseline for Mark's epipolar fill
-//! (TR98 §9) and for the stretch fill (`stretch.rs`).
+//! (TR98 §9) and for the stretch fill (`stretch.rs`, beside it).
 //!
 //! Job: give every empty derived sample (neither `real` nor `hole`) a
 //! colour, a smooth mix of the real samples around it, near ones weighing
@@ -59,8 +59,8 @@
 //! reconstruction already resampled), per-level timing of a GPU mip-map
 //! implementation.
 
-use super::{Counters, HoleFill, Input, MethodInfo};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, HoleFill, Input, MethodInfo};
 use serde_json::{Map, json};
 
 /// One pyramid level: size, colours, weights (f64).

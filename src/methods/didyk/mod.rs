@@ -8,7 +8,7 @@
 //!   frame is warped on its own, and the results are blended per derived
 //!   sample with the paper's preference weights.
 //!
-//! Job: turn the leaf cells of the adaptive grid (`didyk_grid.rs`) into
+//! Job: turn the leaf cells of the adaptive grid (`grid.rs`) into
 //! quads, warp their corners with the 3D warp, draw them textured from the
 //! reference with a depth test, and (second form) merge the references.
 //!
@@ -71,11 +71,11 @@
 //!
 //! Parameters ([`DidykParams`]):
 //! - `grid.threshold`: 3 derived samples (paper §3.3.1: 3 pixels).
-//! - `grid.max_cell`: 64 samples (`didyk_grid.rs`).
+//! - `grid.max_cell`: 64 samples (`grid.rs`).
 //! - `filter`: bilinear (paper silent).
 //! - `preference_power`: 4, dimensionless (paper silent; rule 8).
 //!
-//! Default hole fill: `didyk-inpaint` (`didyk_inpaint.rs`), the paper's
+//! Default hole fill: `didyk-inpaint` (`inpaint.rs`), the paper's
 //! fill of the single-sample T-junction holes (§3.3.1).
 //!
 //! Not modelled: the GPU pipeline (geometry shaders, transform feedback),
@@ -85,12 +85,15 @@
 //! references), the temporal mapping `g` from a *previously derived* frame
 //! (our second image is the trace's other reference, already rendered).
 
-use super::didyk_grid::{Cell, DisparityMipMap, GridParams, GridStats, adaptive_grid, top_level};
-use super::{Counters, Input, MethodInfo, Prepared, Reconstruction};
+pub mod grid;
+pub mod inpaint;
+
 use crate::golden::general::{Window, triangle};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, Input, MethodInfo, Prepared, Reconstruction};
 use bitvec::vec::BitVec;
 use glam::DVec2;
+use grid::{Cell, DisparityMipMap, GridParams, GridStats, adaptive_grid, top_level};
 use postwarp_rtl::{SampleImage, WarpSetup};
 use serde_json::{Map, Value};
 use std::borrow::Cow;

@@ -4,7 +4,7 @@
 //! one connected, nearly flat surface, reduced bottom-up into a quadtree per
 //! tile, and the adaptive grid cells read off it (§4.1.4). It depends only
 //! on the reference's depth, never on a warp, so it is built once per
-//! reference ([`Reconstruction::prepare`](super::Reconstruction::prepare),
+//! reference ([`Reconstruction::prepare`](crate::methods::Reconstruction::prepare),
 //! timed apart) and reused for every derived frame.
 //!
 //! Job: turn a reference depth image into (a) per-sample connectedness
@@ -51,7 +51,7 @@
 //!    are the logical AND of its children's bits on that side. The
 //!    paper's four diagonal bits are the corner samples' diagonal links,
 //!    read from the per-sample links where they are used (vertex
-//!    placement and filtering, `schollmeyer_grid`).
+//!    placement and filtering, `grid`).
 //! 7. Inner nodes (levels 2 to log₂ tile), error = the sum of the four
 //!    children's errors ("accumulated"; for a uniformly curved surface the
 //!    sum is twice the chord deviation of the node):

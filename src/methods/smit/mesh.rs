@@ -7,7 +7,7 @@
 //! and colour interpolated.
 //!
 //! Rules:
-//! 1. Warp, culling and depth test: `smit_warp` rules 1–4. A triangle with
+//! 1. Warp, culling and depth test: `warp` rules 1–4. A triangle with
 //!    a vertex without a surface or culled is not drawn
 //!    (`missing_triangles`).
 //! 2. Mesh: each 2x2 group A (x, y), B (x+1, y), C (x, y+1), D (x+1, y+1)
@@ -37,7 +37,7 @@
 //!    image: 1/Z linearly (`Σ b_k/Z_k`, exact on planes), colour
 //!    perspective-correctly (`Σ b_k·(1/Z_k)·c_k / Σ b_k/Z_k`, the GPU's
 //!    default for varyings).
-//! 6. After drawing, the level-0 holes are classified (`smit_errors`).
+//! 6. After drawing, the level-0 holes are classified (`errors`).
 //!
 //! Parameters: `tolerance` τ (dimensionless, default 2, our choice: the
 //! paper's mesh is completely connected and has none; 2 was the best of
@@ -54,83 +54,16 @@
 //! the right and bottom edges of a surface next to a gap, where the
 //! top-left rule leaves the last centres to the missing triangles).
 
-use super::smit_errors;
-use super::smit_warp::{
-    WarpedReference, WarpedSample, depth_write, triangle_any_winding, warp_counters, warp_frame, window_of,
-};
-use super::{Counters, Input, MethodInfo, Reconstruction};
+use super::errors;
+use super::geometry::{TriangleState, for_each_triangle};
+use super::warp::{WarpedReference, depth_write, triangle_any_winding, warp_counters, warp_frame, window_of};
 use crate::golden::planes::DestPlanes;
-use glam::DVec2;
+use crate::methods::{Counters, Input, MethodInfo, Reconstruction};
 use serde_json::json;
 
 /// Rule 3's default tolerance τ (predicted edge lengths, at least τ
 /// derived samples).
 pub const DEFAULT_TOLERANCE: f64 = 2.0;
-
-/// Rule 3: whether the edge from `a` to `b` (reference offset `o`) joins
-/// one surface, at tolerance `tol`.
-#[inline(always)]
-pub fn connected(a: &WarpedSample, b: &WarpedSample, o: DVec2, tol: f64) -> bool {
-    let d = b.pos - a.pos;
-    let fits = |p: DVec2| (d - p).length_squared() <= tol * tol * p.length_squared().max(1.0);
-    fits(a.jac * o) && fits(b.jac * o)
-}
-
-/// Why a mesh triangle was or was not emitted.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TriangleState {
-    /// All three vertices warped and (with a tolerance) one surface.
-    Drawn,
-    /// A vertex has no surface or was culled.
-    Missing,
-    /// Rule 3 failed on an edge.
-    Broken,
-}
-
-/// Rules 1–3 for the 2x2 group whose top-left reference sample is
-/// `(gx, gy)` (both `< width − 1`, `< height − 1`): its triangles
-/// (A, B, D) and (A, D, C), each with its state and the reference indices
-/// of its vertices.
-#[inline(always)]
-pub fn group_triangles(
-    r: &WarpedReference,
-    gx: usize,
-    gy: usize,
-    tolerance: Option<f64>,
-) -> [(TriangleState, [usize; 3]); 2] {
-    let w = r.width as usize;
-    let (ia, ib, ic, id) = (gy * w + gx, gy * w + gx + 1, (gy + 1) * w + gx, (gy + 1) * w + gx + 1);
-    let (sa, sb, sc, sd) = (&r.samples[ia], &r.samples[ib], &r.samples[ic], &r.samples[id]);
-    let joins = |p: &Option<WarpedSample>, q: &Option<WarpedSample>, o: DVec2| match (p, q) {
-        (Some(p), Some(q)) => Some(tolerance.is_none_or(|t| connected(p, q, o, t))),
-        _ => None,
-    };
-    let (right, down) = (DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0));
-    let ad = joins(sa, sd, DVec2::new(1.0, 1.0));
-    let state = |e1: Option<bool>, e2: Option<bool>| match (e1, e2, ad) {
-        (Some(true), Some(true), Some(true)) => TriangleState::Drawn,
-        (Some(_), Some(_), Some(_)) => TriangleState::Broken,
-        _ => TriangleState::Missing,
-    };
-    [
-        (state(joins(sa, sb, right), joins(sb, sd, down)), [ia, ib, id]),
-        (state(joins(sc, sd, right), joins(sa, sc, down)), [ia, id, ic]),
-    ]
-}
-
-/// Rules 1–3: visit the triangles of `r`'s mesh in order (groups in raster
-/// order, (A, B, D) then (A, D, C)) with their state and their vertices'
-/// reference indices.
-pub fn for_each_triangle(r: &WarpedReference, tolerance: Option<f64>, mut f: impl FnMut(TriangleState, [usize; 3])) {
-    let (w, h) = (r.width as usize, r.height as usize);
-    for gy in 0..h.saturating_sub(1) {
-        for gx in 0..w.saturating_sub(1) {
-            for (state, tri) in group_triangles(r, gx, gy, tolerance) {
-                f(state, tri);
-            }
-        }
-    }
-}
 
 /// Smit's mesh.
 #[derive(Clone, Copy, Debug)]
@@ -250,33 +183,7 @@ impl Reconstruction for SmitMesh {
         ] {
             extra.insert(k.into(), json!(v));
         }
-        smit_errors::classify(&warped, out, input.cmd.supersample).insert_into(&mut extra);
+        errors::classify(&warped, out, input.cmd.supersample).insert_into(&mut extra);
         Counters { primitives: st.triangles, extra }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use glam::DMat2;
-
-    fn s(x: f64, y: f64, j: f64) -> WarpedSample {
-        WarpedSample { pos: DVec2::new(x, y), inv_z: 1.0, jac: DMat2::IDENTITY * j }
-    }
-
-    #[test]
-    fn connected_follows_the_planes_of_both_ends() {
-        let o = DVec2::new(1.0, 0.0);
-        assert!(connected(&s(0.0, 0.0, 1.0), &s(1.0, 0.0, 1.0), o, 0.5));
-        assert!(connected(&s(0.0, 0.0, 1.0), &s(1.45, 0.0, 1.0), o, 0.5));
-        assert!(!connected(&s(0.0, 0.0, 1.0), &s(1.6, 0.0, 1.0), o, 0.5), "a 0.6-sample gap opens");
-        assert!(!connected(&s(0.0, 0.0, 1.0), &s(0.4, 0.0, 1.0), o, 0.5), "an overlap of 0.6");
-        // Magnified by 4: a step of 5 is within half a predicted edge.
-        assert!(connected(&s(0.0, 0.0, 4.0), &s(5.0, 0.0, 4.0), o, 0.5));
-        assert!(!connected(&s(0.0, 0.0, 4.0), &s(7.0, 0.0, 4.0), o, 0.5));
-        // One grazing end predicts far more than the step: not one surface.
-        assert!(!connected(&s(0.0, 0.0, 1.0), &s(1.0, 0.0, 40.0), o, 0.5));
-        let nan = WarpedSample { jac: DMat2::IDENTITY * f64::NAN, ..s(1.0, 0.0, 1.0) };
-        assert!(!connected(&s(0.0, 0.0, 1.0), &nan, o, 0.5));
     }
 }

@@ -53,9 +53,9 @@
 //! colour interpolation, the hole fill (the paper pairs rubber sheets with
 //! none: it is preventive), hardware rasterizer cost.
 
-use super::{Counters, Input, MethodInfo, Reconstruction};
 use crate::golden::general::{Window, triangle};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, Input, MethodInfo, Reconstruction};
 use glam::DVec2;
 use postwarp_rtl::{SampleImage, WarpSetup};
 use serde_json::Map;

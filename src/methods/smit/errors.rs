@@ -21,7 +21,7 @@
 //!    triangle whose edge opens by more than half a predicted edge (at
 //!    least half a derived sample) spanning a discontinuity; and (b) every
 //!    warped sample's footprint quad `J·[±½, ±½]` capped as `smit-quad`
-//!    rule 3 (at `smit_point::MAX_SPLAT`): the surface around a sample at
+//!    rule 3 (at `geometry::MAX_SPLAT`): the surface around a sample at
 //!    a surface's edge. Both rasterized under the top-left rule, either
 //!    winding.
 //! 3. A hole inside the extent is a sampling error; outside it, an
@@ -58,17 +58,15 @@
 //! the kd-tree and re-rendering the first three leaf nodes hit, redrawing
 //! the background quad) needs the scene too.
 
-use super::smit_mesh::{TriangleState, group_triangles};
-use super::smit_point::MAX_SPLAT;
-use super::smit_quad::quad_corners;
-use super::smit_warp::{WarpedReference, triangle_any_winding, window_of};
+use super::geometry::{MAX_SPLAT, TriangleState, group_triangles, quad_corners};
+use super::warp::{WarpedReference, triangle_any_winding, window_of};
 use crate::golden::general::Window;
 use crate::golden::planes::DestPlanes;
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use serde_json::{Map, json};
 
-/// Rule 2's tolerance of "one surface" (`smit_mesh::connected`, in
+/// Rule 2's tolerance of "one surface" (`mesh::connected`, in
 /// predicted edge lengths, at least this many derived samples).
 pub const SURFACE_TOLERANCE: f64 = 0.5;
 

@@ -6,7 +6,7 @@
 //! flat colour and depth, z-tested.
 //!
 //! Rules:
-//! 1. Warp, Jacobian `J`, culling and depth test: `smit_warp` rules 1–4.
+//! 1. Warp, Jacobian `J`, culling and depth test: `warp` rules 1–4.
 //! 2. Splat side `s = ceil(max(|J₀₀| + |J₀₁|, |J₁₀| + |J₁₁|))` derived
 //!    samples, at least 1: the side of the smallest axis-aligned square
 //!    covering the sample's footprint parallelogram `J·[±½, ±½]` (row `i`
@@ -26,7 +26,7 @@
 //!    per axis), clipped to the image.
 //! 5. Every fragment carries the sample's colour and warped 1/Z (flat, as
 //!    a GL point).
-//! 6. After drawing, the level-0 holes are classified (`smit_errors`).
+//! 6. After drawing, the level-0 holes are classified (`errors`).
 //!
 //! Parameters: `max_size` (derived samples, default 16; our choice: the
 //! paper gives no cap, a GPU's point-size range has one; 16 bounds a
@@ -38,35 +38,12 @@
 //! sizes (we use the half-open square), point sprites and anti-aliased
 //! points.
 
-use super::smit_errors;
-use super::smit_warp::{WarpedReference, ceil, centres, depth_write, warp_counters, warp_frame};
-use super::{Counters, Input, MethodInfo, Reconstruction};
+use super::errors;
+use super::geometry::{MAX_SPLAT, splat_side};
+use super::warp::{WarpedReference, centres, depth_write, warp_counters, warp_frame};
 use crate::golden::planes::DestPlanes;
-use glam::{DMat2, DVec2};
+use crate::methods::{Counters, Input, MethodInfo, Reconstruction};
 use serde_json::json;
-
-/// Rule 3's default cap on the splat side (derived samples).
-pub const MAX_SPLAT: u32 = 16;
-
-/// Rule 2's allowance for rounding (derived samples).
-pub const SIZE_EPS: f64 = 1e-6;
-
-/// Extent of the footprint parallelogram `J·[±½, ±½]` along the derived x
-/// and y axes (derived samples): `(|J₀₀| + |J₀₁|, |J₁₀| + |J₁₁|)`.
-pub fn footprint_extent(j: &DMat2) -> DVec2 {
-    DVec2::new(j.x_axis.x.abs() + j.y_axis.x.abs(), j.x_axis.y.abs() + j.y_axis.y.abs())
-}
-
-/// Rules 2–3: the splat side (derived samples) and whether it was capped.
-pub fn splat_side(j: &DMat2, max_size: u32) -> (u32, bool) {
-    let e = footprint_extent(j);
-    let m = e.x.max(e.y);
-    if !m.is_finite() {
-        return (max_size, true);
-    }
-    let m = m - SIZE_EPS;
-    if m > max_size as f64 { (max_size, true) } else { (ceil(m).max(1.0) as u32, false) }
-}
 
 /// Smit's point splats.
 #[derive(Clone, Copy, Debug)]
@@ -156,29 +133,7 @@ impl Reconstruction for SmitPoint {
         }
         let mean = if st.splats > 0 { st.side_sum as f64 / st.splats as f64 } else { 0.0 };
         extra.insert("mean_splat_side".into(), json!(mean));
-        smit_errors::classify(&warped, out, input.cmd.supersample).insert_into(&mut extra);
+        errors::classify(&warped, out, input.cmd.supersample).insert_into(&mut extra);
         Counters { primitives: st.splats, extra }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn splat_side_is_the_covering_square() {
-        let j = |a: f64, b: f64, c: f64, d: f64| DMat2::from_cols(DVec2::new(a, c), DVec2::new(b, d));
-        assert_eq!(splat_side(&DMat2::IDENTITY, 16), (1, false));
-        assert_eq!(splat_side(&(DMat2::IDENTITY * (1.0 + 1e-12)), 16), (1, false), "rounding");
-        assert_eq!(splat_side(&(DMat2::IDENTITY * 2.6), 16), (3, false));
-        // Rows are derived axes: x' = 2x, y' = x + 0.5y covers 2 x 1.5.
-        assert_eq!(footprint_extent(&j(2.0, 0.0, 1.0, 0.5)), DVec2::new(2.0, 1.5));
-        assert_eq!(splat_side(&j(2.0, 0.0, 1.0, 0.5), 16), (2, false));
-        // Negative entries count by magnitude (a mirror keeps the size).
-        assert_eq!(splat_side(&j(-1.2, 0.0, 0.0, -0.3), 16), (2, false));
-        assert_eq!(splat_side(&(DMat2::IDENTITY * 40.0), 16), (16, true));
-        assert_eq!(splat_side(&(DMat2::IDENTITY * f64::NAN), 16), (16, true));
-        assert_eq!(splat_side(&(DMat2::IDENTITY * f64::INFINITY), 4), (4, true));
-        assert_eq!(splat_side(&DMat2::ZERO, 16), (1, false), "at least one sample");
     }
 }

@@ -3,7 +3,7 @@
 //! `schollmeyer-cross`, `schollmeyer-partial`, `schollmeyer-irregular`.
 //!
 //! Job: warp each reference's adaptive grid (the cells of its
-//! surface-estimation quadtree, `schollmeyer_quadtree`) into the derived
+//! surface-estimation quadtree, `quadtree`) into the derived
 //! frame as Z-tested triangles, with vertex depths and texture filtering
 //! chosen by connectedness, so that surfaces are stitched without cracks
 //! and depth discontinuities are never bridged by a rubber sheet.
@@ -15,7 +15,7 @@
 //! Rules:
 //! 1. Per reference, once ([`Reconstruction::prepare`], timed apart): the
 //!    quadtree with this method's reduction and its cells
-//!    (`schollmeyer_quadtree` rules 1–9), and every cell's four corner
+//!    (`quadtree` rules 1–9), and every cell's four corner
 //!    vertices (rules 2–3). Nothing here depends on the warp.
 //! 2. Vertex position: always the cell's corner, the point between the
 //!    four samples TL, TR, BL, BR around it (`(cx − ½, cy − ½)`).
@@ -63,7 +63,7 @@
 //!    sample, clamped into the cell's own samples, so a cell never shows a
 //!    colour of another surface.
 //!
-//! Parameters: `schollmeyer_quadtree::QuadtreeParams` (ε = 0.01, τ = 0.02,
+//! Parameters: `quadtree::QuadtreeParams` (ε = 0.01, τ = 0.02,
 //! tile 32 samples); nothing else.
 //!
 //! Counters (`extra`, per frame, summed over the references):
@@ -80,10 +80,10 @@
 //! fill closes them); the paper's single-reference stereo set-up (several
 //! references are composited by the Z test, rule 7).
 
-use super::schollmeyer_quadtree::{Cell, GridCounts, Links, QuadtreeParams, Reduction, dir, estimate};
-use super::{Counters, Input, MethodInfo, Prepared, Reconstruction};
+use super::quadtree::{Cell, GridCounts, Links, QuadtreeParams, Reduction, dir, estimate};
 use crate::golden::general::{Window, triangle};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, Input, MethodInfo, Prepared, Reconstruction};
 use glam::DVec2;
 use postwarp_rtl::{SampleImage, WarpSetup};
 use serde_json::{Map, Value};
@@ -526,8 +526,12 @@ mod tests {
                 let cmd = FrameCommands::new(0, derived, 1, &[(0, c), (1, c)]);
                 for r in Reduction::ALL {
                     let _ = run(&Schollmeyer::new(r), &cmd, &[&img, &img]);
-                    let f =
-                        run_with(&Schollmeyer::new(r), &crate::methods::low_pass_fill::LowPass, &cmd, &[&img, &img]);
+                    let f = run_with(
+                        &Schollmeyer::new(r),
+                        &crate::methods::schollmeyer::low_pass_fill::LowPass,
+                        &cmd,
+                        &[&img, &img],
+                    );
                     // Every hole is filled unless nothing real was drawn.
                     let empty = (0..f.samples.len()).filter(|&i| !f.samples.real[i] && !f.samples.hole[i]).count();
                     assert!(empty == 0 || f.samples.real.not_any(), "{r:?} {w}x{h}: {empty} empty");

@@ -1,6 +1,6 @@
 //! Smit et al.'s per-pixel warp (seed 001, Smit et al., C&G 2010, §3.4),
 //! shared by their three reconstructions (`smit-point`, `smit-quad`,
-//! `smit-mesh`) and by the hole classification (`smit_errors`).
+//! `smit-mesh`) and by the hole classification (`errors`).
 //!
 //! Job: turn one reference into warped samples: derived position, derived
 //! 1/Z and the warp's Jacobian on the sample's surface plane, then write
@@ -113,7 +113,7 @@ pub fn warp_reference(
 }
 
 /// Warp all references of a frame, in warp order.
-pub fn warp_frame(input: &super::Input) -> Vec<WarpedReference> {
+pub fn warp_frame(input: &crate::methods::Input) -> Vec<WarpedReference> {
     let ss = input.cmd.supersample;
     let dst = input.cmd.derived_camera.sample_grid(ss);
     assert_eq!(input.refs.len(), input.cmd.warps.len(), "one reference image per warp");

@@ -6,7 +6,7 @@
 //! does it vary" in O(1) per cell.
 //!
 //! Job: from one reference (sample image + warp to the derived camera), the
-//! list of leaf cells to draw as quads (`didyk.rs` draws them).
+//! list of leaf cells to draw as quads (`mod.rs` draws them).
 //!
 //! Rules:
 //! 1. Disparity. The paper's disparity is the image-space displacement of a

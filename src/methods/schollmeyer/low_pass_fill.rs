@@ -65,8 +65,8 @@
 //! `rubber-sheet` comparisons of the paper's Table 2 are separate methods
 //! (`docs/methods/schollmeyer.md`).
 
-use super::{Counters, HoleFill, Input, MethodInfo};
 use crate::golden::planes::DestPlanes;
+use crate::methods::{Counters, HoleFill, Input, MethodInfo};
 use glam::DVec2;
 use serde_json::{Map, Value};
 
