@@ -14,6 +14,12 @@
 //!    kitchen), so they hold more pixels than the display.
 //! 5. Ground truth is rendered at every derived frame with the same
 //!    super-sampling and box-filtered to display pixels.
+//! 6. A scene with semi-transparent, mirror or refracting materials gives a
+//!    v2 trace: every reference gets a fragment layer (up to `fragments`
+//!    per sample) if the scene has semi-transparent materials and a
+//!    ray-tree layer if it has specular ones, and every ground truth the
+//!    `nondiffuse` mask (a pixel is in it when any of its samples is). A
+//!    diffuse scene gives a v1 trace, byte for byte as before v2.
 
 use crate::path::CameraPath;
 use crate::path::predict::predict_pose;
@@ -90,6 +96,15 @@ pub struct TraceSpec {
     /// factor about the mean of the rods' mid-points (> 0; default 1): on a
     /// flat arrangement such as a fence, thinner rods at the same coverage.
     pub rod_scale: f64,
+    /// Most transparent fragments stored per reference sample in a v2
+    /// trace's fragment layer (1 to 16; default 4). Rendering composites
+    /// every fragment whatever this is.
+    pub fragments: u32,
+    /// Stress: every object of a semi-transparent, mirror or refracting
+    /// material scaled by this factor about the middle of its base (> 0,
+    /// default 1; `Scene::with_nondiffuse_scaled`): the non-diffuse share
+    /// of the view.
+    pub nondiffuse_scale: f64,
 }
 
 impl Default for TraceSpec {
@@ -114,6 +129,8 @@ impl Default for TraceSpec {
             rod_radius_scale: 1.0,
             rod_scale: 1.0,
             depth_range_scale: 1.0,
+            fragments: 4,
+            nondiffuse_scale: 1.0,
         }
     }
 }
@@ -175,6 +192,13 @@ impl TraceSpec {
             if !(v > 0.0 && v <= MAX_ROD_SCALE) {
                 bail!("{name} {v}: expected a factor in (0, {MAX_ROD_SCALE}]");
             }
+        }
+        let max_f = crate::trace::layers::MAX_FRAGMENTS;
+        if !(1..=max_f).contains(&self.fragments) {
+            bail!("--fragments {}: expected 1 to {max_f} fragments per sample", self.fragments);
+        }
+        if !(self.nondiffuse_scale > 0.0 && self.nondiffuse_scale <= MAX_NONDIFFUSE_SCALE) {
+            bail!("nondiffuse_scale {}: expected a factor in (0, {MAX_NONDIFFUSE_SCALE}]", self.nondiffuse_scale);
         }
         // As `make_trace` counts them, in f64 so that no ratio overflows.
         let refs = ((self.frames - 1) as f64 * self.ref_rate_hz / self.derived_rate_hz + 1e-9).floor() + 2.0;
@@ -261,6 +285,13 @@ impl TraceSpec {
                 c.z
             ));
         }
+        if self.nondiffuse_scale != 1.0 {
+            parts.push(format!(
+                "the scene's {} semi-transparent, mirror and refracting objects scaled {}x about their bases",
+                scene.nondiffuse_count(),
+                self.nondiffuse_scale
+            ));
+        }
         (!parts.is_empty()).then(|| format!("stress: {}", parts.join("; ")))
     }
 
@@ -276,14 +307,35 @@ impl TraceSpec {
 /// radius becomes 0.5 m).
 pub const MAX_ROD_SCALE: f64 = 50.0;
 
+/// Largest `nondiffuse_scale`.
+pub const MAX_NONDIFFUSE_SCALE: f64 = 10.0;
+
 /// `scene` as `spec` renders it: with its rods changed by
-/// `rod_radius_scale` and `rod_scale` (borrowed unchanged at the defaults).
+/// `rod_radius_scale` and `rod_scale`, and its non-diffuse objects by
+/// `nondiffuse_scale` (borrowed unchanged at the defaults).
 pub fn stressed_scene<'a>(scene: &'a Scene, spec: &TraceSpec) -> std::borrow::Cow<'a, Scene> {
-    if spec.rod_radius_scale == 1.0 && spec.rod_scale == 1.0 {
-        std::borrow::Cow::Borrowed(scene)
-    } else {
-        std::borrow::Cow::Owned(scene.with_rods_scaled(spec.rod_radius_scale, spec.rod_scale))
+    let rods = spec.rod_radius_scale != 1.0 || spec.rod_scale != 1.0;
+    let nondiffuse = spec.nondiffuse_scale != 1.0;
+    match (rods, nondiffuse) {
+        (false, false) => std::borrow::Cow::Borrowed(scene),
+        (true, false) => std::borrow::Cow::Owned(scene.with_rods_scaled(spec.rod_radius_scale, spec.rod_scale)),
+        (false, true) => std::borrow::Cow::Owned(scene.with_nondiffuse_scaled(spec.nondiffuse_scale)),
+        (true, true) => std::borrow::Cow::Owned(
+            scene.with_rods_scaled(spec.rod_radius_scale, spec.rod_scale).with_nondiffuse_scaled(spec.nondiffuse_scale),
+        ),
     }
+}
+
+/// The pixel mask of a `width x height` display from a sample mask at `ss
+/// x ss` samples per pixel: a pixel is set when any of its samples is.
+pub fn pixel_mask(samples: &bitvec::vec::BitVec, width: u32, height: u32, ss: u32) -> bitvec::vec::BitVec {
+    let sw = (width * ss) as usize;
+    let mut m = bitvec::vec::BitVec::repeat(false, (width * height) as usize);
+    for i in samples.iter_ones() {
+        let (x, y) = (i % sw, i / sw);
+        m.set((y / ss as usize) * width as usize + x / ss as usize, true);
+    }
+    m
 }
 
 /// Largest `depth_range_scale` (2^30: wastes 30 bits).
@@ -391,9 +443,12 @@ pub fn make_trace_with(
         let t = j as f64 / spec.ref_rate_hz;
         let pose = spec.path_pose(predict_pose(path.as_ref(), spec.start_s + t, spec.prediction_s));
         let cam = Camera { intrinsics: ref_k, pose };
-        let mut img = scene.render(&cam, ss);
+        let r = scene.render_layers(&cam, ss, spec.fragments);
+        let mut img = r.samples;
         quantise_depth(&mut img.z, spec.depth_bits, spec.depth_range_scale);
-        w.add_reference(t, cam, &img, SlopeSource::Exact).with_context(|| format!("writing reference {j}"))?;
+        let layers = crate::trace::layers::Layers { fragments: r.fragments, raytree: r.raytree };
+        w.add_reference_with_layers(t, cam, &img, SlopeSource::Exact, &layers)
+            .with_context(|| format!("writing reference {j}"))?;
         bar.inc(1);
     }
     for k in 0..spec.frames {
@@ -401,13 +456,17 @@ pub fn make_trace_with(
         let cam = Camera { intrinsics: display, pose: spec.derived_pose(path.pose(spec.start_s + t)) };
         let prev = spec.previous_reference(k);
         let truth = if spec.truth {
-            let img = scene.render(&cam, ss);
+            let r = scene.render_layers(&cam, ss, spec.fragments);
+            let img = r.samples;
             bar.inc(1);
+            let nondiffuse = (scene.has_transparency() || scene.has_specular())
+                .then(|| pixel_mask(&r.nondiffuse, spec.width, spec.height, ss));
             Some(TruthImage {
                 width: spec.width,
                 height: spec.height,
                 colour: box_filter(img.width, img.height, ss, &img.colour),
                 known: bitvec::vec::BitVec::repeat(true, (spec.width * spec.height) as usize),
+                nondiffuse,
             })
         } else {
             None

@@ -3,12 +3,14 @@
 //! does not change the trace; malformed manifests, made by mutating a valid
 //! printed one, are errors (never panics) that name the file and the line
 //! at fault; and a reference image's samples without a surface read as
-//! depth 0 and slopes 0, whatever the file holds there. Case counts:
+//! depth 0 and slopes 0, whatever the file holds there. Generated traces
+//! carry v2 layers on some references (then print as version 2). Case counts:
 //! `common::prop_config` (`PROPTEST_CASES` raises them).
 
 mod common;
 
 use glam::{DQuat, DVec3};
+use postwarp::trace::layers::{LayerStatement, MAX_FRAGMENTS, ReferenceLayers, SpecularMaterial};
 use postwarp::trace::{
     DerivedFrame, Display, MAX_REFS_PER_FRAME, MAX_SAMPLES, MAX_SIDE, ReferenceFrame, Trace, TraceError,
     format_manifest, parse_manifest,
@@ -72,13 +74,37 @@ fn note() -> impl Strategy<Value = String> {
     "[^\\n\\r]{0,40}".prop_map(|s| s.trim().to_string())
 }
 
+/// A ray-tree material-table entry.
+fn specular_material() -> impl Strategy<Value = SpecularMaterial> {
+    prop_oneof![
+        1 => Just(SpecularMaterial::Mirror),
+        2 => (0.01f64..10.0).prop_map(|ior| SpecularMaterial::Dielectric { ior }),
+        1 => prop::num::f64::POSITIVE
+            .prop_filter("finite", |f| f.is_finite())
+            .prop_map(|ior| SpecularMaterial::Dielectric { ior }),
+    ]
+}
+
+/// A reference's v2 layers: mostly none.
+fn layers() -> impl Strategy<Value = ReferenceLayers> {
+    let fragments =
+        (image_path(), 1u32..=MAX_FRAGMENTS).prop_map(|(image, max)| LayerStatement::Fragments { image, max });
+    let raytree = (image_path(), prop::collection::vec(specular_material(), 1..4))
+        .prop_map(|(image, materials)| LayerStatement::RayTree { image, materials });
+    prop_oneof![
+        2 => Just(ReferenceLayers::default()),
+        1 => (prop::option::of(fragments), prop::option::of(raytree))
+            .prop_map(|(fragments, raytree)| ReferenceLayers { fragments, raytree }),
+    ]
+}
+
 fn reference(d: Display) -> impl Strategy<Value = ReferenceFrame> {
     (side(), side())
         .prop_filter("at most MAX_SAMPLES", move |&(w, h)| {
             w as u64 * h as u64 * (d.supersample as u64).pow(2) <= MAX_SAMPLES
         })
-        .prop_flat_map(|(w, h)| (finite(), camera(w, h), image_path()))
-        .prop_map(|(time_s, camera, image)| ReferenceFrame { time_s, camera, image })
+        .prop_flat_map(|(w, h)| (finite(), camera(w, h), image_path(), layers()))
+        .prop_map(|(time_s, camera, image, layers)| ReferenceFrame { time_s, camera, image, layers })
 }
 
 fn derived(d: Display, n_refs: usize) -> impl Strategy<Value = DerivedFrame> {
@@ -133,6 +159,7 @@ enum Kind {
     Note,
     Display,
     Reference(usize),
+    Layer(usize),
     Derived(usize),
 }
 
@@ -143,6 +170,7 @@ fn kind(line: &str) -> Kind {
         (Some("note"), _) => Kind::Note,
         (Some("display"), _) => Kind::Display,
         (Some("reference"), Some(i)) => Kind::Reference(i),
+        (Some("layer"), Some(i)) => Kind::Layer(i),
         (Some("derived"), Some(i)) => Kind::Derived(i),
         _ => panic!("not a printed line: {line}"),
     }
@@ -188,7 +216,7 @@ proptest! {
             let fixed = match k {
                 Kind::Version | Kind::Note => toks.len(),
                 Kind::Display => 1,
-                Kind::Reference(_) | Kind::Derived(_) => 2,
+                Kind::Reference(_) | Kind::Layer(_) | Kind::Derived(_) => 2,
             };
             // Shuffle the key=value fields (Fisher-Yates).
             for a in (fixed + 1..toks.len()).rev() {
@@ -206,8 +234,10 @@ proptest! {
 
     /// Deleting a line: the version, display, or a frame that is not the
     /// last of its kind is an error at exactly the line that now stands in
-    /// its place. Deleting a note, or the last frame of a kind, may leave a
-    /// valid trace; then the check is only that an error names a line.
+    /// its place (for a reference with layers: its first layer line, which
+    /// now names a reference not declared). Deleting a note, a layer, or
+    /// the last frame of a kind, may leave a valid trace; then the check is
+    /// only that an error names a line.
     #[test]
     fn deleted_line_is_an_error_at_that_line(t in trace(), pick in any::<prop::sample::Index>()) {
         let mut ls = lines(&format_manifest(&t));
@@ -216,8 +246,15 @@ proptest! {
         ls.remove(k);
         let r = parse(&join(&ls));
         let (n_refs, n_der) = (t.references.len(), t.derived.len());
+        let layered = |i: usize| !t.references[i].layers.is_empty();
         match what {
             Kind::Version | Kind::Display => assert_at_line(&r.unwrap_err(), k + 1)?,
+            Kind::Reference(i) if layered(i) => {
+                let e = r.unwrap_err();
+                assert_at_line(&e, k + 1)?;
+                prop_assert!(e.message.contains(&format!("layer index `{i}`")), "{}", e);
+            }
+            Kind::Layer(_) => prop_assert!(r.is_ok(), "{:?}", r),
             Kind::Reference(i) if i + 1 < n_refs => {
                 let e = r.unwrap_err();
                 assert_at_line(&e, k + 1)?;
@@ -277,7 +314,7 @@ proptest! {
     ) {
         let mut ls = lines(&format_manifest(&t));
         let statements: Vec<usize> = (0..ls.len())
-            .filter(|&i| matches!(kind(&ls[i]), Kind::Display | Kind::Reference(_) | Kind::Derived(_)))
+            .filter(|&i| matches!(kind(&ls[i]), Kind::Display | Kind::Reference(_) | Kind::Layer(_) | Kind::Derived(_)))
             .collect();
         let k = statements[pick_line.index(statements.len())];
         // Number tokens: maximal runs of [0-9.eE+-] after `=`, `,`, `x` or the index position.
@@ -321,7 +358,7 @@ proptest! {
 
     /// Another version number on line 1 is refused, naming line 1.
     #[test]
-    fn unknown_version_is_refused_at_line_1(t in trace(), v in prop_oneof![0u64..1, 2u64..u64::MAX]) {
+    fn unknown_version_is_refused_at_line_1(t in trace(), v in prop_oneof![0u64..1, 3u64..u64::MAX]) {
         let mut ls = lines(&format_manifest(&t));
         ls[0] = format!("postwarp-trace {v}");
         let e = parse(&join(&ls)).unwrap_err();
@@ -343,14 +380,14 @@ proptest! {
         pick in any::<prop::sample::Index>(),
         as_field in any::<bool>(),
     ) {
-        prop_assume!(!["note", "display", "reference", "derived"].contains(&keyword.as_str()));
+        prop_assume!(!["note", "display", "reference", "derived", "layer"].contains(&keyword.as_str()));
         let known = ["width", "height", "supersample", "time", "image", "size", "refs", "truth", "fx", "fy", "cx", "cy",
-            "position", "orientation"];
+            "position", "orientation", "kind", "max", "materials"];
         prop_assume!(!known.contains(&field.as_str()));
         let mut ls = lines(&format_manifest(&t));
         if as_field {
             let statements: Vec<usize> = (0..ls.len())
-                .filter(|&i| matches!(kind(&ls[i]), Kind::Display | Kind::Reference(_) | Kind::Derived(_)))
+                .filter(|&i| matches!(kind(&ls[i]), Kind::Display | Kind::Reference(_) | Kind::Layer(_) | Kind::Derived(_)))
                 .collect();
             let k = statements[pick.index(statements.len())];
             ls[k].push_str(&format!(" {field}=1"));

@@ -1,4 +1,5 @@
-//! Trace format v1: round trips, and every error names the file and line.
+//! Trace format v1 (still read by this v2 build): round trips, and every
+//! error names the file and line. v2's layers: `tests/trace_layers.rs`.
 
 use glam::{DQuat, DVec3};
 use postwarp::trace::{
@@ -38,6 +39,7 @@ fn write_trace(dir: &Path) -> Trace {
         height: 3,
         colour: (0..12).map(|i| [i as f32 / 12.0, 0.25, 0.75]).collect(),
         known: (0..12).map(|i| i != 5).collect(),
+        nondiffuse: None,
     };
     w.add_derived(1.0 / 30.0, camera(4, 3, 0.02, 0.01), vec![a, b], Some(&truth)).unwrap();
     w.add_derived(2.0 / 30.0, camera(4, 3, 0.04, 0.02), vec![b, a], None).unwrap();
@@ -116,7 +118,8 @@ fn good_manifest_parses() {
 
 #[test]
 fn unknown_version_is_an_error_naming_line_1() {
-    assert_err(&parse_with(1, "postwarp-trace 2"), 1, "unsupported trace version 2");
+    assert_err(&parse_with(1, "postwarp-trace 3"), 1, "unsupported trace version 3");
+    assert_err(&parse_with(1, "postwarp-trace 0"), 1, "reads versions 1 to 2");
     assert_err(&parse_with(1, "hello"), 1, "expected the version line");
 }
 

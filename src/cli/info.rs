@@ -1,5 +1,10 @@
 //! `postwarp info TRACE`: what a trace holds, read back from disk (every
-//! image is loaded and checked).
+//! image is loaded and checked, v2 layers included: per reference, the
+//! transparent fragments — samples with any, their mean and largest
+//! number, how many were stored out of the layer's maximum — and the ray
+//! tree — samples with a valid reflection and refraction node, the
+//! material table; per derived frame, the share of ground-truth pixels in
+//! the non-diffuse mask).
 
 use crate::trace::Trace;
 use postwarp_rtl::camera::EpipoleKind;
@@ -30,12 +35,42 @@ fn epipole_text(k: EpipoleKind, cam: &Camera, e: &postwarp_rtl::Epipole) -> Stri
     }
 }
 
+/// One line about a fragment layer.
+fn fragment_text(f: &crate::trace::layers::FragmentLayer) -> String {
+    let with = f.count.iter().filter(|&&c| c > 0).count();
+    let total: u64 = f.count.iter().map(|&c| c as u64).sum();
+    let most = f.count.iter().copied().max().unwrap_or(0);
+    let full = f.count.iter().filter(|&&c| c as u32 == f.max).count();
+    format!(
+        "fragments: {:.1}% of samples have any; {:.2} per such sample, at most {most} of max {} ({:.1}% of samples at the max)",
+        100.0 * with as f64 / f.len().max(1) as f64,
+        total as f64 / with.max(1) as f64,
+        f.max,
+        100.0 * full as f64 / f.len().max(1) as f64
+    )
+}
+
+/// One line about a ray-tree layer.
+fn ray_tree_text(rt: &crate::trace::layers::RayTreeLayer) -> String {
+    use crate::trace::layers::Node;
+    let n = rt.len().max(1) as f64;
+    let count = |node: Node| (0..rt.len()).filter(|&i| rt.has(i, node)).count() as f64;
+    let table: Vec<String> = rt.materials.iter().map(|m| m.token()).collect();
+    format!(
+        "ray tree: valid diffuse {:.1}%, reflect {:.1}%, refract {:.1}% of samples; materials {}",
+        100.0 * count(Node::Diffuse) / n,
+        100.0 * count(Node::Reflect) / n,
+        100.0 * count(Node::Refract) / n,
+        table.join(", ")
+    )
+}
+
 /// The text `postwarp info` prints.
 pub fn summary(t: &Trace) -> anyhow::Result<String> {
     let mut s = String::new();
     let d = t.display;
     let ss = d.supersample;
-    writeln!(s, "trace      {} (format v{})", t.manifest.display(), crate::trace::TRACE_VERSION)?;
+    writeln!(s, "trace      {} (format v{})", t.manifest.display(), t.format_version())?;
     for n in &t.notes {
         writeln!(s, "note       {n}")?;
     }
@@ -73,6 +108,13 @@ pub fn summary(t: &Trace) -> anyhow::Result<String> {
             format!("{h:.1}x{v:.1}"),
             loaded.slopes.name()
         )?;
+        let layers = t.load_layers(i)?;
+        if let Some(f) = &layers.fragments {
+            writeln!(s, "{:>14}{}", "", fragment_text(f))?;
+        }
+        if let Some(rt) = &layers.raytree {
+            writeln!(s, "{:>14}{}", "", ray_tree_text(rt))?;
+        }
     }
     writeln!(s, "\nderived frames: {}", t.derived.len())?;
     writeln!(
@@ -86,6 +128,10 @@ pub fn summary(t: &Trace) -> anyhow::Result<String> {
             let unknown = truth.known.count_zeros();
             if unknown > 0 {
                 writeln!(s, "     (frame {i}: {unknown} ground-truth pixels marked unknown)")?;
+            }
+            if let Some(m) = &truth.nondiffuse {
+                let share = 100.0 * m.count_ones() as f64 / m.len().max(1) as f64;
+                writeln!(s, "     (frame {i}: {share:.1}% of ground-truth pixels specular or transparent)")?;
             }
         }
         writeln!(

@@ -8,8 +8,8 @@ use std::path::PathBuf;
 /// Flags of `postwarp make-trace` (defaults follow the paper's test-bed).
 #[derive(clap::Args, Debug)]
 pub struct Args {
-    /// Built-in scene name (room, slants, hairball, occluders) or a scene
-    /// description file (TOML, see docs/scene-format.md).
+    /// Built-in scene name (room, slants, hairball, occluders, gallery) or
+    /// a scene description file (TOML, see docs/scene-format.md).
     #[arg(long)]
     pub scene: String,
     /// Output trace directory (created; existing files are replaced).
@@ -55,6 +55,11 @@ pub struct Args {
     /// Do not render ground truth.
     #[arg(long)]
     pub no_truth: bool,
+    /// Transparent fragments stored per reference sample (1 to 16) when
+    /// the scene has semi-transparent materials (a v2 trace's fragment
+    /// layer); the rendered colour composites all of them regardless.
+    #[arg(long, default_value_t = 4)]
+    pub fragments: u32,
 }
 
 fn parse_fov(s: &str) -> Result<(f64, f64), String> {
@@ -79,6 +84,7 @@ impl Args {
             prediction_s: self.prediction,
             start_s: self.start,
             truth: !self.no_truth,
+            fragments: self.fragments,
             ..TraceSpec::default()
         }
     }

@@ -398,7 +398,8 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
         }
     }
     let n = left.len();
-    let right_truth = TruthImage { width: w, height: h, colour: right_colour, known: BitVec::repeat(true, n) };
+    let right_truth =
+        TruthImage { width: w, height: h, colour: right_colour, known: BitVec::repeat(true, n), nondiffuse: None };
     let source_name = src
         .canonicalize()
         .ok()

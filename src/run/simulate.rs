@@ -17,6 +17,10 @@
 //!    = (DRAM bytes per frame) · views · target_frame_rate_hz / 1e9`. Both
 //!    are for the trace's frame size (the configuration's display size is
 //!    the preset's target, not used to scale).
+//! 4. The hardware model is diffuse (TR98): on a v2 trace it warps the
+//!    reference images' composited colour and ignores the transparent
+//!    fragment and ray-tree layers, which the report names
+//!    (`ignored_layers`).
 
 use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
 use crate::metrics::psnr::psnr_rgb;
@@ -121,6 +125,7 @@ pub fn measure_hardware(
         "method": "mark-hw",
         "config": to_json(&cfg),
         "supersample_from_trace": from_trace,
+        "ignored_layers": trace.layer_kinds(),
         "frames": frames,
         "total": total,
         "mean": mean,

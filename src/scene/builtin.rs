@@ -14,15 +14,16 @@ use super::texture::Image;
 use std::sync::{Arc, OnceLock};
 
 /// Built-in scenes: (name, TOML text).
-pub const SCENES: [(&str, &str); 4] = [
+pub const SCENES: [(&str, &str); 5] = [
     ("room", include_str!("../../scenes/room.toml")),
     ("slants", include_str!("../../scenes/slants.toml")),
     ("hairball", include_str!("../../scenes/hairball.toml")),
     ("occluders", include_str!("../../scenes/occluders.toml")),
+    ("gallery", include_str!("../../scenes/gallery.toml")),
 ];
 
 /// Names of the built-in scenes, in [`SCENES`] order.
-pub const SCENE_NAMES: [&str; 4] = [SCENES[0].0, SCENES[1].0, SCENES[2].0, SCENES[3].0];
+pub const SCENE_NAMES: [&str; 5] = [SCENES[0].0, SCENES[1].0, SCENES[2].0, SCENES[3].0, SCENES[4].0];
 
 const MESHES: [(&str, &[u8]); 4] = [
     ("stanford-bunny.obj", include_bytes!("../../data/models/stanford-bunny.obj")),

@@ -21,7 +21,7 @@ use super::SceneError;
 use super::builtin;
 use super::geometry::{Cuboid, Cylinder, Plane, Sphere};
 use super::mesh::{MeshData, MeshInstance};
-use super::texture::{Image, Material, Texture};
+use super::texture::{Image, Material, Optics, Texture};
 use super::world::{Object, Shape, World};
 use super::{SplineSpec, TrackedSpec, Waypoint};
 use glam::DVec3;
@@ -47,6 +47,7 @@ struct SceneFile {
     objects: Vec<Spanned<ObjectDesc>>,
     spline: Spanned<SplineSpec>,
     tracked: Option<Spanned<TrackedSpec>>,
+    ray_depth: Option<u32>,
 }
 
 #[derive(Deserialize)]
@@ -61,6 +62,10 @@ struct LightDesc {
 struct MaterialDesc {
     colour: V3,
     texture: Option<TextureDesc>,
+    opacity: Option<f64>,
+    reflect: Option<V3>,
+    refract: Option<V3>,
+    ior: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -190,6 +195,10 @@ pub const DEFAULT_LIGHT_DIRECTION: [f64; 3] = [0.35, 1.0, 0.25];
 pub const DEFAULT_AMBIENT: f64 = 0.3;
 /// Colour of objects without a `material`.
 pub const DEFAULT_COLOUR: [f32; 3] = [0.7, 0.7, 0.7];
+/// Default `ray_depth`: specular bounces a ray may take.
+pub const DEFAULT_RAY_DEPTH: u32 = 4;
+/// Largest `ray_depth`.
+pub const MAX_RAY_DEPTH: u32 = 16;
 
 /// Everything a [`super::Scene`] holds, checked.
 pub struct Compiled {
@@ -204,6 +213,8 @@ pub struct Compiled {
     /// Indices into `world.objects` of the objects written as `kind = "rod"`
     /// (the scene's thin features), in file order.
     pub rods: Vec<usize>,
+    /// Specular bounces a ray may take (`ray_depth`).
+    pub ray_depth: u32,
 }
 
 struct Ctx<'a> {
@@ -352,7 +363,7 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
     };
 
     // Materials, by name; index 0 is the default grey.
-    let mut materials = vec![Material { colour: DEFAULT_COLOUR, texture: None }];
+    let mut materials = vec![Material { colour: DEFAULT_COLOUR, texture: None, optics: Default::default() }];
     let mut material_index: HashMap<&str, usize> = HashMap::new();
     let mut material_needs_uv: Vec<bool> = vec![false];
     for (name, m) in &file.materials {
@@ -364,9 +375,10 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
             None => None,
             Some(t) => Some(texture(&mut ctx, t).map_err(|e| ctx.err(span.clone(), &what, format!("texture: {e}")))?),
         };
+        let optics = optics(m).map_err(|e| ctx.err(span.clone(), &what, e))?;
         material_needs_uv.push(matches!(texture, Some(Texture::Image(_))));
         material_index.insert(name.as_str(), materials.len());
-        materials.push(Material { colour: base, texture });
+        materials.push(Material { colour: base, texture, optics });
     }
 
     let mut objects = Vec::with_capacity(file.objects.len());
@@ -426,6 +438,13 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
         }
     };
 
+    let ray_depth = file.ray_depth.unwrap_or(DEFAULT_RAY_DEPTH);
+    if !(1..=MAX_RAY_DEPTH).contains(&ray_depth) {
+        return Err(SceneError::new(
+            origin,
+            format!("`ray_depth` must be 1 to {MAX_RAY_DEPTH} specular bounces, got {ray_depth}"),
+        ));
+    }
     let name = file.name.unwrap_or_else(|| {
         Path::new(origin).file_stem().map_or_else(|| origin.to_string(), |s| s.to_string_lossy().into_owned())
     });
@@ -439,7 +458,31 @@ fn compile_in(text: &str, base_dir: Option<&Path>, files_allowed: bool, origin: 
         spline,
         tracked,
         rods,
+        ray_depth,
     })
+}
+
+/// The optics keys of a material, checked: `opacity` in [0, 1] and, below
+/// 1, none of the specular keys (a semi-transparent fragment is thin and
+/// does not refract); `reflect` and `refract` tints in [0, 1]; `refract`
+/// needs `ior`; `ior` finite and > 0.
+fn optics(m: &MaterialDesc) -> Result<Optics, String> {
+    let opacity = m.opacity.unwrap_or(1.0);
+    if !(0.0..=1.0).contains(&opacity) {
+        return Err(format!("`opacity` must be in [0, 1], got {opacity}"));
+    }
+    let reflect = m.reflect.map(|c| colour(c, "reflect")).transpose()?;
+    let refract = m.refract.map(|c| colour(c, "refract")).transpose()?;
+    let ior = m.ior.map(|x| positive(x, "ior")).transpose()?;
+    if opacity < 1.0 && (reflect.is_some() || refract.is_some() || ior.is_some()) {
+        return Err("a semi-transparent material (`opacity` < 1) takes no `reflect`, `refract` or `ior`: \
+                    its fragments are thin and composited as they are"
+            .into());
+    }
+    if refract.is_some() && ior.is_none() {
+        return Err("`refract` needs `ior` (the index of refraction inside the surface)".into());
+    }
+    Ok(Optics { opacity: opacity as f32, reflect, refract, ior })
 }
 
 fn list(items: &[&str]) -> String {

@@ -84,6 +84,15 @@ impl Plane {
         self.extent.is_some()
     }
 
+    /// The same rectangle scaled by `factor` (> 0) about `anchor`; an
+    /// unbounded plane is returned unchanged.
+    pub fn scaled_about(&self, anchor: DVec3, factor: f64) -> Plane {
+        match self.extent {
+            None => self.clone(),
+            Some((u, v, _, _)) => Plane::finite(anchor + (self.centre - anchor) * factor, u * factor, v * factor),
+        }
+    }
+
     /// Intersect.
     pub fn intersect(&self, ray: &Ray, t_max: f64) -> Option<Hit> {
         let denom = self.normal.dot(ray.dir);
@@ -123,6 +132,11 @@ impl Cuboid {
     /// about +y (right-handed: +x turns toward −z).
     pub fn new(centre: DVec3, half: DVec3, yaw_deg: f64) -> Cuboid {
         Cuboid { centre, half, rot: DMat3::from_rotation_y(yaw_deg.to_radians()) }
+    }
+
+    /// The same box scaled by `factor` (> 0) about `anchor`.
+    pub fn scaled_about(&self, anchor: DVec3, factor: f64) -> Cuboid {
+        Cuboid { centre: anchor + (self.centre - anchor) * factor, half: self.half * factor, rot: self.rot }
     }
 
     /// Bounding box.
@@ -188,6 +202,11 @@ impl Sphere {
     /// Sphere of `radius > 0`.
     pub fn new(centre: DVec3, radius: f64) -> Sphere {
         Sphere { centre, radius }
+    }
+
+    /// The same sphere scaled by `factor` (> 0) about `anchor`.
+    pub fn scaled_about(&self, anchor: DVec3, factor: f64) -> Sphere {
+        Sphere { centre: anchor + (self.centre - anchor) * factor, radius: self.radius * factor }
     }
 
     /// Bounding box.

@@ -13,11 +13,19 @@
 //! result depends only on the scene and the camera (same bytes for any
 //! thread count); user input never causes a panic, only a [`SceneError`].
 //!
-//! Not modelled: shadows, reflections, transparency, view-dependent
-//! shading, lights other than one directional light plus ambient, motion
-//! within a frame. Files: `description` (format), `geometry` (analytic
-//! shapes), `mesh` (OBJ meshes), `bvh`, `texture`, `world` (objects and the
-//! nearest-hit query), `render`, `builtin` (embedded scenes and models).
+//! Materials may also be semi-transparent (thin fragments composited front
+//! to back), mirrors (with a tint) and refractors (index of refraction,
+//! tint, Fresnel weights), with a bounded ray depth ([`Scene::render_layers`]
+//! also returns the transparent fragments, the ray tree and the mask of
+//! non-diffuse samples that a v2 trace stores).
+//!
+//! Not modelled: shadows, glossy or any view-dependent light other than
+//! mirror reflection and refraction, lights other than one directional
+//! light plus ambient, motion within a frame. Files: `description`
+//! (format), `geometry` (analytic shapes), `mesh` (OBJ meshes), `bvh`,
+//! `texture` (textures and optics), `world` (objects and the nearest-hit
+//! query), `render` (primary rays and layers), `shade` (surface radiance,
+//! fragments, secondary rays), `builtin` (embedded scenes and models).
 
 mod builtin;
 mod bvh;
@@ -25,6 +33,7 @@ pub(crate) mod description;
 pub(crate) mod geometry;
 pub(crate) mod mesh;
 mod render;
+mod shade;
 mod texture;
 mod world;
 
@@ -123,6 +132,44 @@ pub struct Scene {
     world: world::World,
     /// Objects written as `kind = "rod"` (indices into `world.objects`).
     rods: Vec<usize>,
+    /// Specular bounces a ray may take.
+    ray_depth: u32,
+    /// The ray-tree material table (specular materials, deduplicated, in
+    /// material order) and each world material's 1-based index in it (0:
+    /// not specular).
+    specular_table: (Vec<crate::trace::layers::SpecularMaterial>, Vec<u8>),
+}
+
+/// A render with everything a v2 trace stores ([`Scene::render_layers`]).
+pub struct Rendered {
+    /// The reference image: composited colour; depth, slopes and id of the
+    /// first surface that is not semi-transparent.
+    pub samples: postwarp_rtl::SampleImage,
+    /// Transparent fragments (scenes with a semi-transparent material).
+    pub fragments: Option<crate::trace::layers::FragmentLayer>,
+    /// The ray tree (scenes with a mirror or refracting material).
+    pub raytree: Option<crate::trace::layers::RayTreeLayer>,
+    /// Per sample: the ray met a semi-transparent fragment, or its first
+    /// other surface reflects or refracts.
+    pub nondiffuse: bitvec::vec::BitVec,
+}
+
+fn specular_table(materials: &[texture::Material]) -> (Vec<crate::trace::layers::SpecularMaterial>, Vec<u8>) {
+    let mut table = Vec::new();
+    let index = materials
+        .iter()
+        .map(|m| match m.optics.specular_material() {
+            None => 0,
+            Some(s) => match table.iter().position(|t| *t == s) {
+                Some(k) => k as u8 + 1,
+                None => {
+                    table.push(s);
+                    table.len() as u8
+                }
+            },
+        })
+        .collect();
+    (table, index)
 }
 
 impl fmt::Debug for Scene {
@@ -190,7 +237,20 @@ impl Scene {
     /// scene in error messages.
     pub fn from_toml_str(text: &str, base_dir: Option<&Path>, origin: &str) -> Result<Scene, SceneError> {
         let c = description::compile(text, base_dir, origin)?;
+        let specular_table = specular_table(&c.world.materials);
+        if specular_table.0.len() > crate::trace::layers::MAX_MATERIALS {
+            return Err(SceneError::new(
+                origin,
+                format!(
+                    "{} different specular materials; a ray tree holds at most {}",
+                    specular_table.0.len(),
+                    crate::trace::layers::MAX_MATERIALS
+                ),
+            ));
+        }
         Ok(Scene {
+            ray_depth: c.ray_depth,
+            specular_table,
             name: c.name,
             description: c.description,
             spline: c.spline,
@@ -259,7 +319,74 @@ impl Scene {
             ambient: self.ambient,
             world: world::World::new(self.world.materials.clone(), objects),
             rods: self.rods.clone(),
+            ray_depth: self.ray_depth,
+            specular_table: self.specular_table.clone(),
         }
+    }
+
+    /// True if object `i` (index, id − 1) has a semi-transparent or
+    /// specular material.
+    fn is_nondiffuse_object(&self, i: usize) -> bool {
+        let o = &self.world.materials[self.world.objects[i].material].optics;
+        o.is_transparent() || o.is_specular()
+    }
+
+    /// Number of objects with a semi-transparent, mirror or refracting
+    /// material.
+    pub fn nondiffuse_count(&self) -> usize {
+        (0..self.world.objects.len()).filter(|&i| self.is_nondiffuse_object(i)).count()
+    }
+
+    /// True if some material is semi-transparent (a v2 trace of the scene
+    /// has fragment layers).
+    pub fn has_transparency(&self) -> bool {
+        self.world.materials.iter().any(|m| m.optics.is_transparent())
+    }
+
+    /// True if some material reflects or refracts (a v2 trace of the scene
+    /// has ray-tree layers).
+    pub fn has_specular(&self) -> bool {
+        self.world.materials.iter().any(|m| m.optics.is_specular())
+    }
+
+    /// This scene with every object of a semi-transparent, mirror or
+    /// refracting material scaled by `factor` (> 0; 1 leaves them) about
+    /// the middle of the bottom of its bounding box, so that what stands on
+    /// the floor stays on it and a pane or a mirror stays in its plane: the
+    /// stress knob of the non-diffuse share of the view. Meshes and
+    /// unbounded planes keep their size; other objects, ids and materials
+    /// are unchanged; the BVH is rebuilt.
+    pub fn with_nondiffuse_scaled(&self, factor: f64) -> Scene {
+        let mut objects = self.world.objects.clone();
+        for (i, o) in objects.iter_mut().enumerate() {
+            if self.is_nondiffuse_object(i) {
+                o.shape = o.shape.scaled_about_base(factor);
+            }
+        }
+        Scene {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            spline: self.spline.clone(),
+            tracked: self.tracked.clone(),
+            background: self.background,
+            to_light: self.to_light,
+            ambient: self.ambient,
+            world: world::World::new(self.world.materials.clone(), objects),
+            rods: self.rods.clone(),
+            ray_depth: self.ray_depth,
+            specular_table: self.specular_table.clone(),
+        }
+    }
+
+    /// Specular bounces a ray may take (`ray_depth`).
+    pub fn ray_depth(&self) -> u32 {
+        self.ray_depth
+    }
+
+    /// The ray-tree material table of the scene (what a v2 trace's
+    /// `materials=` lists).
+    pub fn specular_materials(&self) -> &[crate::trace::layers::SpecularMaterial] {
+        &self.specular_table.0
     }
 
     /// Number of objects (object ids run from 1 to this).
@@ -275,6 +402,14 @@ impl Scene {
     /// Render `camera` (in pixels) at `ss x ss` samples per pixel: result is
     /// `width·ss x height·ss` samples (empty if `ss` is 0).
     pub fn render(&self, camera: &postwarp_rtl::Camera, ss: u32) -> postwarp_rtl::SampleImage {
-        render::render(self, camera, ss)
+        render::render(self, camera, ss, 1).samples
+    }
+
+    /// [`Scene::render`] with the v2 layers: up to `max_fragments` (1 to
+    /// [`crate::trace::layers::MAX_FRAGMENTS`]) transparent fragments per
+    /// sample if the scene has semi-transparent materials, the ray tree if
+    /// it has specular ones, and the non-diffuse mask.
+    pub fn render_layers(&self, camera: &postwarp_rtl::Camera, ss: u32, max_fragments: u32) -> Rendered {
+        render::render(self, camera, ss, max_fragments)
     }
 }

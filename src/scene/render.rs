@@ -22,52 +22,99 @@
 //!   and its own coordinates, so the output is bit-identical for any number
 //!   of threads.
 //!
-//! Not modelled: shadows, specular or any view-dependent light, emission,
-//! lens effects, anti-aliasing beyond what the caller's super-sampling does.
+//! - semi-transparent surfaces, mirrors and refractors follow `shade.rs`:
+//!   the sample's colour is the composite of its fragments over the
+//!   radiance of its first surface that is not semi-transparent; depth,
+//!   slopes and id are that surface's (semi-transparent surfaces write no
+//!   depth, as in a deferred renderer with an A-buffer). An opaque diffuse
+//!   surface seen directly is shaded exactly as before these existed, so
+//!   diffuse scenes render bit for bit as they did;
+//! - layers ([`render`] with the scene's materials): the first
+//!   `max_fragments` fragments of each sample, nearest first, with the
+//!   opaque surface's radiance behind them (fragment layer); the ray tree
+//!   at that surface (`shade::Nodes`, material index from the scene's
+//!   table); the non-diffuse mask: the ray met a fragment, or its surface
+//!   reflects or refracts.
+//!
+//! Not modelled: lens effects, anti-aliasing beyond what the caller's
+//! super-sampling does.
 
-use super::Scene;
 use super::geometry::Ray;
+use super::shade::{Nodes, composite};
+use super::{Rendered, Scene};
+use crate::trace::layers::{Fragment, FragmentLayer, Node, NodeImage, RayTreeLayer};
 use bitvec::vec::BitVec;
 use glam::DVec3;
 use postwarp_rtl::{Camera, SampleImage};
 use rayon::prelude::*;
 
-#[derive(Clone, Copy)]
+#[derive(Clone)]
 struct Sample {
     colour: [f32; 3],
     z: f32,
     slopes: [f32; 2],
     id: u32,
     valid: bool,
+    /// The first `max_fragments` fragments (layer data).
+    fragments: Vec<Fragment>,
+    /// Radiance of the opaque surface behind the fragments.
+    opaque: [f32; 3],
+    /// Ray-tree nodes and material index at that surface.
+    tree: Option<(Nodes, u8)>,
+    nondiffuse: bool,
 }
 
-/// Render `camera` at `ss x ss` samples per pixel.
-pub fn render(scene: &Scene, camera: &Camera, ss: u32) -> SampleImage {
+/// Render `camera` at `ss x ss` samples per pixel, with the layers the
+/// scene's materials call for (`max_fragments` fragments per sample).
+pub fn render(scene: &Scene, camera: &Camera, ss: u32, max_fragments: u32) -> Rendered {
     let cam = camera.sample_grid(ss);
     let k = cam.intrinsics;
     let (w, h) = (k.width, k.height);
+    let (want_fragments, want_tree) = (scene.has_transparency(), scene.has_specular());
     if ss == 0 || w == 0 || h == 0 {
-        return SampleImage::empty(w, h);
+        return Rendered {
+            samples: SampleImage::empty(w, h),
+            fragments: None,
+            raytree: None,
+            nondiffuse: BitVec::new(),
+        };
     }
     let r = cam.pose.rotation();
     let rt = r.transpose();
     let origin = cam.pose.position;
-    let miss = Sample { colour: scene.background, z: 0.0, slopes: [0.0; 2], id: 0, valid: false };
+    let keep = max_fragments as usize;
     let shade = |x: u32, y: u32| -> Sample {
         let d_cam = DVec3::new((x as f64 - k.cx) / k.fx, (y as f64 - k.cy) / k.fy, 1.0);
         let ray = Ray { origin, dir: r * d_cam };
-        let Some(oh) = scene.world.closest(&ray) else { return miss };
+        let walk = scene.walk(&ray);
+        let fragments: Vec<Fragment> = walk
+            .fragments
+            .iter()
+            .take(keep)
+            .map(|f| Fragment { colour: f.colour, alpha: f.alpha, z: f.t as f32 })
+            .collect();
+        let Some((t, oh, seg)) = walk.hit else {
+            return Sample {
+                colour: composite(&walk.fragments, scene.background),
+                z: 0.0,
+                slopes: [0.0; 2],
+                id: 0,
+                valid: false,
+                fragments,
+                opaque: scene.background,
+                tree: None,
+                nondiffuse: !walk.fragments.is_empty(),
+            };
+        };
+        let mut nodes = scene.surface(&seg, &oh, 0);
+        nodes.depth[Node::Diffuse as usize] = t as f32;
+        let material = scene.specular_index(&oh);
+        let colour = composite(&walk.fragments, nodes.radiance);
         let hit = oh.hit;
-        let object = &scene.world.objects[oh.object];
-        let material = &scene.world.materials[object.material];
         let n = hit.normal;
-        let n_shade = if object.shape.two_sided() && n.dot(ray.dir) > 0.0 { -n } else { n };
-        let albedo = material.albedo(ray.at(hit.t), n, hit.uv);
-        let light = scene.ambient + (1.0 - scene.ambient) * n_shade.dot(scene.to_light).max(0.0) as f32;
-        let colour = albedo.map(|a| (a * light).clamp(0.0, 1.0));
         // Tangent plane in camera space: n_c·X = d with X = t·d_cam.
         let n_c = rt * n;
-        let d = hit.t * n_c.dot(d_cam);
+        let d = t * n_c.dot(d_cam);
         let slope = |v: f64| {
             let s = v as f32;
             if s.is_finite() {
@@ -80,10 +127,14 @@ pub fn render(scene: &Scene, camera: &Camera, ss: u32) -> SampleImage {
         };
         Sample {
             colour,
-            z: hit.t as f32,
+            z: t as f32,
             slopes: [slope(n_c.x / (k.fx * d)), slope(n_c.y / (k.fy * d))],
             id: oh.object as u32 + 1,
             valid: true,
+            fragments,
+            opaque: nodes.radiance,
+            tree: Some((nodes, material)),
+            nondiffuse: !walk.fragments.is_empty() || material != 0,
         }
     };
     let rows: Vec<Vec<Sample>> = (0..h).into_par_iter().map(|y| (0..w).map(|x| shade(x, y)).collect()).collect();
@@ -97,12 +148,31 @@ pub fn render(scene: &Scene, camera: &Camera, ss: u32) -> SampleImage {
         object_id: Vec::with_capacity(n),
         valid: BitVec::with_capacity(n),
     };
-    for s in rows.iter().flatten() {
+    let mut fl = want_fragments.then(|| FragmentLayer::empty(w, h, max_fragments));
+    let mut tl = want_tree.then(|| RayTreeLayer::empty(w, h, scene.specular_materials().to_vec()));
+    let mut nondiffuse = BitVec::with_capacity(n);
+    for (i, s) in rows.iter().flatten().enumerate() {
         img.colour.push(s.colour);
         img.z.push(s.z);
         img.inv_z_slopes.push(s.slopes);
         img.object_id.push(s.id);
         img.valid.push(s.valid);
+        nondiffuse.push(s.nondiffuse);
+        if let Some(fl) = &mut fl {
+            fl.count[i] = s.fragments.len() as u8;
+            fl.opaque[i] = s.opaque;
+            let m = fl.max as usize;
+            fl.fragments[i * m..i * m + s.fragments.len()].copy_from_slice(&s.fragments);
+        }
+        if let (Some(tl), Some((nodes, material))) = (&mut tl, &s.tree) {
+            tl.valid[i] = nodes.valid;
+            tl.material[i] = *material;
+            for node in Node::ALL {
+                let img: &mut NodeImage = &mut tl.nodes[node as usize];
+                img.colour[i] = nodes.colour[node as usize];
+                img.depth[i] = if nodes.valid & node.bit() != 0 { nodes.depth[node as usize] } else { 0.0 };
+            }
+        }
     }
-    img
+    Rendered { samples: img, fragments: fl, raytree: tl, nondiffuse }
 }

@@ -95,13 +95,66 @@ pub enum Texture {
     Image(Arc<Image>),
 }
 
-/// A material: base colour and optional texture.
+/// A material: base colour, optional texture, and how light leaves the
+/// surface besides its diffuse colour.
 #[derive(Clone, Debug)]
 pub struct Material {
     /// Linear RGB base colour.
     pub colour: [f32; 3],
     /// Optional texture.
     pub texture: Option<Texture>,
+    /// Transparency, reflection, refraction (`docs/scene-format.md`).
+    pub optics: Optics,
+}
+
+/// How light leaves a surface besides its diffuse colour (the keys
+/// `opacity`, `reflect`, `refract`, `ior` of a material). The default is
+/// an opaque diffuse surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Optics {
+    /// Opacity in [0, 1]: below 1 the surface is a semi-transparent
+    /// fragment (thin, no refraction) that the camera sees through.
+    pub opacity: f32,
+    /// Tint of the mirror reflection (linear RGB), if the surface reflects.
+    pub reflect: Option<[f32; 3]>,
+    /// Tint of the refraction (linear RGB), if the surface refracts.
+    pub refract: Option<[f32; 3]>,
+    /// Index of refraction: the reflection and refraction weigh by the
+    /// Fresnel terms (reflection tint white unless `reflect` says).
+    pub ior: Option<f64>,
+}
+
+impl Default for Optics {
+    fn default() -> Self {
+        Optics { opacity: 1.0, reflect: None, refract: None, ior: None }
+    }
+}
+
+impl Optics {
+    /// A semi-transparent surface (opacity below 1).
+    pub fn is_transparent(&self) -> bool {
+        self.opacity < 1.0
+    }
+
+    /// A surface with a reflection or a refraction node.
+    pub fn is_specular(&self) -> bool {
+        self.reflection_tint().is_some() || self.refract.is_some()
+    }
+
+    /// Tint of the reflection node: `reflect`, else white for a dielectric
+    /// (`ior` given), else none.
+    pub fn reflection_tint(&self) -> Option<[f32; 3]> {
+        self.reflect.or(self.ior.map(|_| [1.0; 3]))
+    }
+
+    /// The ray-tree material (how the nodes weigh), for specular surfaces.
+    pub fn specular_material(&self) -> Option<crate::trace::layers::SpecularMaterial> {
+        use crate::trace::layers::SpecularMaterial;
+        match self.ior {
+            Some(ior) => Some(SpecularMaterial::Dielectric { ior }),
+            None => self.reflect.map(|_| SpecularMaterial::Mirror),
+        }
+    }
 }
 
 impl Material {
@@ -184,8 +237,11 @@ mod tests {
 
     #[test]
     fn checker_on_a_cell_boundary_is_stable() {
-        let m =
-            Material { colour: [1.0, 1.0, 1.0], texture: Some(Texture::Checker { cell: 1.0, other: [0.0, 0.0, 0.0] }) };
+        let m = Material {
+            colour: [1.0, 1.0, 1.0],
+            texture: Some(Texture::Checker { cell: 1.0, other: [0.0, 0.0, 0.0] }),
+            optics: Optics::default(),
+        };
         // A floor at y = 0 seen from above, with rounding noise either side.
         for y in [0.0, 1e-15, -1e-15] {
             assert_eq!(m.albedo(DVec3::new(0.5, y, 0.5), DVec3::Y, None), [0.0, 0.0, 0.0]);

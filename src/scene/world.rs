@@ -7,7 +7,9 @@
 //! Among equally near hits the earlier object wins, whatever order the BVH
 //! visits them in, so ids never depend on the tree shape.
 //!
-//! Not modelled: transparency, shadows, any secondary rays.
+//! Not modelled: shadows. Secondary rays (reflection, refraction, the
+//! walk through semi-transparent fragments) are the renderer's, built on
+//! [`World::closest`].
 
 use super::bvh::{Aabb, Bvh, RayBoxTest};
 use super::geometry::{Cuboid, Cylinder, Hit, Plane, Ray, Sphere};
@@ -49,6 +51,22 @@ impl Shape {
             Shape::Sphere(s) => s.intersect(ray, t_max),
             Shape::Cylinder(c) => c.intersect(ray, t_max),
             Shape::Mesh(m) => m.intersect(ray, t_max),
+        }
+    }
+
+    /// The same shape scaled by `factor` (> 0) about the middle of the
+    /// bottom face of its bounding box (so an object standing on a floor
+    /// stays on it, and a rectangle stays in its plane); meshes and
+    /// unbounded planes are returned unchanged.
+    pub fn scaled_about_base(&self, factor: f64) -> Shape {
+        let Some(b) = self.bounds() else { return self.clone() };
+        let anchor = glam::DVec3::new(0.5 * (b.min.x + b.max.x), b.min.y, 0.5 * (b.min.z + b.max.z));
+        match self {
+            Shape::Plane(p) => Shape::Plane(p.scaled_about(anchor, factor)),
+            Shape::Box(c) => Shape::Box(c.scaled_about(anchor, factor)),
+            Shape::Sphere(s) => Shape::Sphere(s.scaled_about(anchor, factor)),
+            Shape::Cylinder(c) => Shape::Cylinder(c.scaled_about(anchor, factor)),
+            Shape::Mesh(_) => self.clone(),
         }
     }
 

@@ -8,7 +8,11 @@
 //!   (uint); optional `valid` (1 = the sample sees a surface, 0 = no surface;
 //!   absent = every sample sees one).
 //! - ground truth, one record per display pixel: `R`, `G`, `B`; optional
-//!   `valid` (1 = known, 0 = unknown: metrics skip the pixel).
+//!   `valid` (1 = known, 0 = unknown: metrics skip the pixel); optional
+//!   `nondiffuse` (1 = some sample of the pixel sees a specular or
+//!   transparent surface: the mask of `docs/non-diffuse.md`).
+//! - v2 layers, one record per super-sample of their reference (channel
+//!   lists in [`read_fragment_layer`] and [`read_ray_tree_layer`]).
 //!
 //! Rules: where a surface is claimed, `Z` must be finite and positive, with
 //! a finite `f32` reciprocal (so `Z >= 1/f32::MAX`, about 2.9e-39), and the
@@ -21,6 +25,7 @@
 //! an error, never a huge allocation. Files are written ZIP compressed
 //! (lossless) to a temporary name and renamed.
 
+use super::layers::{Fragment, FragmentLayer, Node, NodeImage, RayTreeLayer, SpecularMaterial};
 use super::{LoadedReference, SlopeSource, TraceError, TruthImage};
 use crate::io_util::write_atomically;
 use bitvec::vec::BitVec;
@@ -107,7 +112,8 @@ pub fn read_truth_image(path: &Path, expected: (u32, u32)) -> Result<TruthImage,
 /// height)` pixels; `file` only names the source in errors.
 pub fn decode_truth_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<TruthImage, TraceError> {
     let ch = Channels::decode(bytes, file, expected)?;
-    Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()? })
+    let nondiffuse = ch.bits("nondiffuse")?;
+    Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()?, nondiffuse })
 }
 
 /// Write a reference image. Slope channels are written only for
@@ -138,6 +144,9 @@ pub fn write_truth_image(path: &Path, t: &TruthImage) -> Result<(), TraceError> 
     if !t.known.all() {
         list.push(mask_channel(&t.known));
     }
+    if let Some(m) = &t.nondiffuse {
+        list.push(bit_channel("nondiffuse", m));
+    }
     write_channels(path, (t.width, t.height), list)
 }
 
@@ -150,7 +159,11 @@ fn rgb_channels(colour: &[[f32; 3]]) -> Vec<AnyChannel<FlatSamples>> {
 }
 
 fn mask_channel(mask: &BitVec) -> AnyChannel<FlatSamples> {
-    AnyChannel::new("valid", FlatSamples::F16(mask.iter().map(|b| f16::from_f32(if *b { 1.0 } else { 0.0 })).collect()))
+    bit_channel("valid", mask)
+}
+
+fn bit_channel(name: &str, mask: &BitVec) -> AnyChannel<FlatSamples> {
+    AnyChannel::new(name, FlatSamples::F16(mask.iter().map(|b| f16::from_f32(if *b { 1.0 } else { 0.0 })).collect()))
 }
 
 fn write_channels(path: &Path, size: (u32, u32), list: Vec<AnyChannel<FlatSamples>>) -> Result<(), TraceError> {
@@ -291,19 +304,229 @@ impl Channels {
 
     fn mask(&self) -> Result<BitVec, TraceError> {
         let n = self.list.first().map(|(_, s)| s.len()).unwrap_or(0);
-        match self.f32s("valid")? {
-            None => Ok(BitVec::repeat(true, n)),
-            Some(v) => {
-                let mut m = BitVec::with_capacity(n);
-                for (i, x) in v.into_iter().enumerate() {
-                    match x {
-                        1.0 => m.push(true),
-                        0.0 => m.push(false),
-                        _ => return Err(self.err(format!("sample {i}: `valid` = {x}; expected 0 or 1"))),
-                    }
-                }
-                Ok(m)
+        Ok(self.bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n)))
+    }
+
+    /// A 0/1 channel as bits (`None` if absent).
+    fn bits(&self, name: &str) -> Result<Option<BitVec>, TraceError> {
+        let Some(v) = self.f32s(name)? else { return Ok(None) };
+        let mut m = BitVec::with_capacity(v.len());
+        for (i, x) in v.into_iter().enumerate() {
+            match x {
+                1.0 => m.push(true),
+                0.0 => m.push(false),
+                _ => return Err(self.err(format!("sample {i}: `{name}` = {x}; expected 0 or 1"))),
             }
         }
+        Ok(Some(m))
     }
+
+    /// A required half/float channel.
+    fn need_f32s(&self, name: &str) -> Result<Vec<f32>, TraceError> {
+        self.f32s(name)?.ok_or_else(|| self.err(format!("missing channel `{name}`")))
+    }
+
+    /// A required uint channel.
+    fn need_u32s(&self, name: &str) -> Result<Vec<u32>, TraceError> {
+        self.u32s(name)?.ok_or_else(|| self.err(format!("missing channel `{name}` (uint)")))
+    }
+
+    /// Required `P.R`, `P.G`, `P.B` channels (prefix `P`), finite.
+    fn rgb_named(&self, prefix: &str) -> Result<Vec<[f32; 3]>, TraceError> {
+        let planes: Vec<Vec<f32>> =
+            ["R", "G", "B"].iter().map(|c| self.need_f32s(&format!("{prefix}.{c}"))).collect::<Result<_, _>>()?;
+        let mut out = Vec::with_capacity(planes[0].len());
+        for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
+            let c = [*r, *g, *b];
+            if !c.iter().all(|v| v.is_finite()) {
+                return Err(self.err(format!("sample {i}: `{prefix}` colour {c:?} is not finite")));
+            }
+            out.push(c);
+        }
+        Ok(out)
+    }
+
+    /// `(x, y)` of sample `i` in a `w`-wide image, for messages.
+    fn xy(i: usize, w: u32) -> (usize, usize) {
+        (i % w as usize, i / w as usize)
+    }
+}
+
+/// Depth a layer claims: finite, positive, with a finite reciprocal.
+fn depth_ok(z: f32) -> bool {
+    z.is_finite() && z > 0.0 && (1.0 / z).is_finite()
+}
+
+/// Read a transparent-fragment layer of `expected` `(width, height)`
+/// samples storing `max` fragments per sample. Channels: `count` (uint,
+/// 0 to `max`: fragments of the sample, nearest first); `opaque.R`,
+/// `opaque.G`, `opaque.B` (colour of the opaque surface behind them); and
+/// for each slot `k` in 0..`max`: `fK.R`, `fK.G`, `fK.B` (colour),
+/// `fK.A` (opacity, 0 to 1), `fK.Z` (depth along the optical axis). Slots
+/// at or past `count` are ignored (read as zeros); the others must have a
+/// finite positive depth, not nearer than the slot before (ray order).
+pub fn read_fragment_layer(path: &Path, expected: (u32, u32), max: u32) -> Result<FragmentLayer, TraceError> {
+    let bytes = read_image_file(path)?;
+    let ch = Channels::decode(&bytes, path, expected)?;
+    let mut layer = FragmentLayer::empty(expected.0, expected.1, max);
+    let count = ch.need_u32s("count")?;
+    layer.opaque = ch.rgb_named("opaque")?;
+    let n = max as usize;
+    for k in 0..n {
+        let c = ch.rgb_named(&format!("f{k}"))?;
+        let a = ch.need_f32s(&format!("f{k}.A"))?;
+        let z = ch.need_f32s(&format!("f{k}.Z"))?;
+        for i in 0..layer.len() {
+            if (k as u32) >= count[i].min(max) {
+                continue;
+            }
+            let (x, y) = Channels::xy(i, expected.0);
+            if !(0.0..=1.0).contains(&a[i]) {
+                return Err(
+                    ch.err(format!("sample ({x}, {y}): fragment {k} opacity f{k}.A = {}; expected 0 to 1", a[i]))
+                );
+            }
+            if !depth_ok(z[i]) {
+                return Err(ch.err(format!(
+                    "sample ({x}, {y}): fragment {k} depth f{k}.Z = {:e}; expected a finite positive depth",
+                    z[i]
+                )));
+            }
+            layer.fragments[i * n + k] = Fragment { colour: c[i], alpha: a[i], z: z[i] };
+        }
+    }
+    for (i, &c) in count.iter().enumerate() {
+        let (x, y) = Channels::xy(i, expected.0);
+        if c > max {
+            return Err(ch.err(format!("sample ({x}, {y}): count = {c}; expected at most max = {max} fragments")));
+        }
+        layer.count[i] = c as u8;
+        let f = layer.at(i);
+        if let Some(k) = (1..f.len()).find(|&k| f[k].z < f[k - 1].z) {
+            return Err(ch.err(format!(
+                "sample ({x}, {y}): fragment {k} (Z = {}) is nearer than fragment {} (Z = {}); expected ray order, \
+                 nearest first",
+                f[k].z,
+                k - 1,
+                f[k - 1].z
+            )));
+        }
+    }
+    Ok(layer)
+}
+
+/// Write a transparent-fragment layer (channels as [`read_fragment_layer`]).
+pub fn write_fragment_layer(path: &Path, l: &FragmentLayer) -> Result<(), TraceError> {
+    let n = l.max as usize;
+    let mut list = vec![AnyChannel::new("count", FlatSamples::U32(l.count.iter().map(|&c| c as u32).collect()))];
+    list.extend(rgb_channels_named("opaque", &l.opaque));
+    for k in 0..n {
+        let slot: Vec<Fragment> = (0..l.len()).map(|i| l.fragments[i * n + k]).collect();
+        let colour: Vec<[f32; 3]> = slot.iter().map(|f| f.colour).collect();
+        list.extend(rgb_channels_named(&format!("f{k}"), &colour));
+        list.push(AnyChannel::new(
+            format!("f{k}.A").as_str(),
+            FlatSamples::F16(slot.iter().map(|f| f16::from_f32(f.alpha)).collect()),
+        ));
+        list.push(AnyChannel::new(format!("f{k}.Z").as_str(), FlatSamples::F32(slot.iter().map(|f| f.z).collect())));
+    }
+    write_channels(path, (l.width, l.height), list)
+}
+
+/// Read a ray-tree layer of `expected` `(width, height)` samples with
+/// material table `materials`. Channels: for each node `N` of `diffuse`,
+/// `reflect`, `refract`: `N.R`, `N.G`, `N.B` (radiance, tint included,
+/// Fresnel not), `N.Z` (depth: the root's along the optical axis, a
+/// child's from the parent's hit along the child ray); `valid` (uint bits:
+/// 1 diffuse, 2 reflect, 4 refract); `material` (uint: 0 none, `k` the
+/// table's `k`-th entry). A valid node needs a finite positive depth; a
+/// reflection or refraction needs a material, a refraction a dielectric;
+/// depths of nodes that are not valid are ignored (read as 0).
+pub fn read_ray_tree_layer(
+    path: &Path,
+    expected: (u32, u32),
+    materials: &[SpecularMaterial],
+) -> Result<RayTreeLayer, TraceError> {
+    let bytes = read_image_file(path)?;
+    let ch = Channels::decode(&bytes, path, expected)?;
+    let mut layer = RayTreeLayer::empty(expected.0, expected.1, materials.to_vec());
+    let valid = ch.need_u32s("valid")?;
+    let material = ch.need_u32s("material")?;
+    for i in 0..layer.len() {
+        let (x, y) = Channels::xy(i, expected.0);
+        if valid[i] > 7 {
+            return Err(ch.err(format!("sample ({x}, {y}): valid = {}; expected bits 1, 2, 4 (at most 7)", valid[i])));
+        }
+        if material[i] as usize > materials.len() {
+            return Err(ch.err(format!(
+                "sample ({x}, {y}): material = {}; the manifest's table has {} entries",
+                material[i],
+                materials.len()
+            )));
+        }
+        layer.valid[i] = valid[i] as u8;
+        layer.material[i] = material[i] as u8;
+        let specular = valid[i] as u8 & (Node::Reflect.bit() | Node::Refract.bit());
+        match layer.material_at(i) {
+            None if specular != 0 => {
+                return Err(ch.err(format!(
+                    "sample ({x}, {y}): a reflection or refraction node is valid but material = 0; expected the \
+                     index of its material"
+                )));
+            }
+            Some(SpecularMaterial::Mirror) if layer.has(i, Node::Refract) => {
+                return Err(ch.err(format!(
+                    "sample ({x}, {y}): a refraction node on a `mirror` material; expected a dielectric (an index of \
+                     refraction)"
+                )));
+            }
+            _ => {}
+        }
+    }
+    for node in Node::ALL {
+        let colour = ch.rgb_named(node.name())?;
+        let mut depth = ch.need_f32s(&format!("{}.Z", node.name()))?;
+        for (i, z) in depth.iter_mut().enumerate() {
+            if !layer.has(i, node) {
+                *z = 0.0;
+            } else if !depth_ok(*z) {
+                let (x, y) = Channels::xy(i, expected.0);
+                return Err(ch.err(format!(
+                    "sample ({x}, {y}): {}.Z = {z:e} where the node is valid; expected a finite positive depth",
+                    node.name()
+                )));
+            }
+        }
+        layer.nodes[node as usize] = NodeImage { colour, depth };
+    }
+    Ok(layer)
+}
+
+/// Write a ray-tree layer (channels as [`read_ray_tree_layer`]).
+pub fn write_ray_tree_layer(path: &Path, l: &RayTreeLayer) -> Result<(), TraceError> {
+    let mut list = vec![
+        AnyChannel::new("valid", FlatSamples::U32(l.valid.iter().map(|&v| v as u32).collect())),
+        AnyChannel::new("material", FlatSamples::U32(l.material.iter().map(|&v| v as u32).collect())),
+    ];
+    for node in Node::ALL {
+        let img = &l.nodes[node as usize];
+        list.extend(rgb_channels_named(node.name(), &img.colour));
+        let depth: Vec<f32> =
+            img.depth.iter().enumerate().map(|(i, &z)| if l.has(i, node) { z } else { 0.0 }).collect();
+        list.push(AnyChannel::new(format!("{}.Z", node.name()).as_str(), FlatSamples::F32(depth)));
+    }
+    write_channels(path, (l.width, l.height), list)
+}
+
+fn rgb_channels_named(prefix: &str, colour: &[[f32; 3]]) -> Vec<AnyChannel<FlatSamples>> {
+    ["R", "G", "B"]
+        .iter()
+        .enumerate()
+        .map(|(k, c)| {
+            AnyChannel::new(
+                format!("{prefix}.{c}").as_str(),
+                FlatSamples::F16(colour.iter().map(|v| f16::from_f32(v[k])).collect()),
+            )
+        })
+        .collect()
 }

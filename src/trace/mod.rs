@@ -1,14 +1,17 @@
-//! Trace format v1: a text manifest naming the display geometry, the
-//! reference frames (OpenEXR image + camera) and the derived frames to
-//! synthesize (camera, which references to warp, optional ground truth).
-//! The grammar is in `docs/trace-format.md`; this module is its only parser
-//! and writer.
+//! Trace format v2 (reads v1): a text manifest naming the display
+//! geometry, the reference frames (OpenEXR image + camera, and in v2
+//! optional layers: transparent fragments, a ray tree; `layers`) and the
+//! derived frames to synthesize (camera, which references to warp,
+//! optional ground truth). The grammar is in `docs/trace-format.md`; this
+//! module is its only parser and writer. A trace without layers is written
+//! as version 1, byte for byte as before v2 existed.
 //!
 //! A trace is a directory holding the manifest [`MANIFEST_NAME`] and the
 //! images it names (paths relative to the manifest's directory).
 
 mod error;
 mod exr_io;
+pub mod layers;
 mod parse;
 mod write;
 
@@ -24,8 +27,11 @@ use bitvec::vec::BitVec;
 use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 use std::path::{Path, PathBuf};
 
-/// The manifest version this build reads and writes.
-pub const TRACE_VERSION: u32 = 1;
+/// The newest manifest version this build reads and writes (it reads
+/// every version from [`MIN_TRACE_VERSION`] up).
+pub const TRACE_VERSION: u32 = 2;
+/// The oldest manifest version this build reads.
+pub const MIN_TRACE_VERSION: u32 = 1;
 /// File name of the manifest inside a trace directory.
 pub const MANIFEST_NAME: &str = "postwarp.trace";
 /// Largest accepted image side, in pixels.
@@ -58,6 +64,8 @@ pub struct ReferenceFrame {
     pub camera: Camera,
     /// EXR image, relative to the trace directory.
     pub image: PathBuf,
+    /// Optional v2 layers (`layer` statements) of this reference.
+    pub layers: layers::ReferenceLayers,
 }
 
 /// A derived frame: a viewpoint to synthesize from reference frames.
@@ -129,6 +137,10 @@ pub struct TruthImage {
     pub colour: Vec<[f32; 3]>,
     /// Set where the truth is known; metrics skip the other pixels.
     pub known: BitVec,
+    /// Set where some sample of the pixel sees a specular or transparent
+    /// surface (channel `nondiffuse`; `None` if the file has none): the
+    /// mask `docs/non-diffuse.md` scores on its own.
+    pub nondiffuse: Option<BitVec>,
 }
 
 impl Trace {
@@ -146,9 +158,23 @@ impl Trace {
         Ok(trace)
     }
 
+    /// Every image file the manifest names, relative to the trace
+    /// directory: reference images, their layers, ground truth.
+    pub fn image_files(&self) -> impl Iterator<Item = &PathBuf> {
+        self.references
+            .iter()
+            .flat_map(|r| std::iter::once(&r.image).chain(r.layers.iter().map(|l| l.image())))
+            .chain(self.derived.iter().filter_map(|d| d.truth.as_ref()))
+    }
+
+    /// The manifest version this trace needs: 2 if a reference has layers,
+    /// else 1 (what [`format_manifest`] writes).
+    pub fn format_version(&self) -> u32 {
+        if self.references.iter().any(|r| !r.layers.is_empty()) { 2 } else { 1 }
+    }
+
     fn check_images_exist(&self, text: &str) -> Result<(), TraceError> {
-        let names =
-            self.references.iter().map(|r| &r.image).chain(self.derived.iter().filter_map(|d| d.truth.as_ref()));
+        let names = self.image_files();
         for name in names {
             let full = self.dir.join(name);
             if !full.is_file() {
@@ -183,6 +209,43 @@ impl Trace {
         let (w, h) = (r.camera.intrinsics.width * ss, r.camera.intrinsics.height * ss);
         read_reference_image(&self.dir.join(&r.image), (w, h))
             .map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
+    }
+
+    /// Load and check reference frame `i`'s layers (none for a v1 trace).
+    /// Their images have the reference image's sample grid.
+    pub fn load_layers(&self, i: usize) -> Result<layers::Layers, TraceError> {
+        let r = &self.references[i];
+        let ss = self.display.supersample;
+        let size = (r.camera.intrinsics.width * ss, r.camera.intrinsics.height * ss);
+        let named_at =
+            |image: &Path| std::fs::read_to_string(&self.manifest).ok().and_then(|t| parse::line_mentioning(&t, image));
+        let mut out = layers::Layers::default();
+        if let Some(layers::LayerStatement::Fragments { image, max }) = &r.layers.fragments {
+            out.fragments = Some(
+                layers::read_fragment_layer(&self.dir.join(image), size, *max)
+                    .map_err(|e| e.referenced_from(&self.manifest, named_at(image)))?,
+            );
+        }
+        if let Some(layers::LayerStatement::RayTree { image, materials }) = &r.layers.raytree {
+            out.raytree = Some(
+                layers::read_ray_tree_layer(&self.dir.join(image), size, materials)
+                    .map_err(|e| e.referenced_from(&self.manifest, named_at(image)))?,
+            );
+        }
+        Ok(out)
+    }
+
+    /// The layer kinds some reference of the trace declares, in
+    /// [`layers::LAYER_KINDS`] order (empty for a v1 trace).
+    pub fn layer_kinds(&self) -> Vec<&'static str> {
+        let has = |f: fn(&layers::ReferenceLayers) -> bool| self.references.iter().any(|r| f(&r.layers));
+        let present = [has(|l| l.fragments.is_some()), has(|l| l.raytree.is_some())];
+        layers::LAYER_KINDS.iter().zip(present).filter(|(_, p)| *p).map(|(k, _)| *k).collect()
+    }
+
+    /// True if some reference of the trace has layers (a v2 trace).
+    pub fn has_layers(&self) -> bool {
+        self.format_version() > 1
     }
 
     /// For each reference frame, the last derived frame that warps it

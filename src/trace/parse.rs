@@ -11,10 +11,10 @@ use std::collections::BTreeMap;
 pub fn parse_manifest(text: &str, file: &Path) -> Result<Trace, TraceError> {
     let err = |line: usize, msg: String| TraceError::at(file, Some(line), msg);
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-    match lines.next() {
+    let version = match lines.next() {
         Some((_, first)) => parse_version(first.trim()).map_err(|m| err(1, m))?,
-        None => return Err(err(1, "empty file; expected the version line `postwarp-trace 1`".into())),
-    }
+        None => return Err(err(1, format!("empty file; expected the version line `postwarp-trace {TRACE_VERSION}`"))),
+    };
     let mut display: Option<Display> = None;
     let mut notes = Vec::new();
     let mut references = Vec::new();
@@ -61,10 +61,15 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Trace, TraceError> {
                 }
                 f.finish().map_err(|m| err(n, m))?;
             }
+            // v2 layers: `layer I kind=...` after reference I (`layers.rs`).
+            "layer" => add_layer(rest, version, &mut references).map_err(|m| err(n, m))?,
             other => {
                 return Err(err(
                     n,
-                    format!("unknown statement `{other}`; expected one of `note`, `display`, `reference`, `derived`"),
+                    format!(
+                        "unknown statement `{other}`; expected one of `note`, `display`, `reference`, `derived`{}",
+                        if version >= 2 { ", `layer`" } else { "" }
+                    ),
                 ));
             }
         }
@@ -91,15 +96,49 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Trace, TraceError> {
     Ok(Trace { display, notes, references, derived, dir: PathBuf::new(), manifest: file.to_path_buf() })
 }
 
-fn parse_version(first: &str) -> Result<(), String> {
+fn parse_version(first: &str) -> Result<u32, String> {
     let Some(v) = first.strip_prefix("postwarp-trace") else {
         return Err(format!("first line is `{first}`; expected the version line `postwarp-trace {TRACE_VERSION}`"));
     };
     match v.trim().parse::<u32>() {
-        Ok(TRACE_VERSION) => Ok(()),
-        Ok(other) => Err(format!("unsupported trace version {other}; this build reads version {TRACE_VERSION}")),
+        Ok(n) if (MIN_TRACE_VERSION..=TRACE_VERSION).contains(&n) => Ok(n),
+        Ok(other) => Err(format!(
+            "unsupported trace version {other}; this build reads versions {MIN_TRACE_VERSION} to {TRACE_VERSION}"
+        )),
         Err(_) => Err(format!("version `{}` is not a number; expected `postwarp-trace {TRACE_VERSION}`", v.trim())),
     }
+}
+
+/// A `layer I ...` statement: attach it to reference `I`, declared before.
+fn add_layer(rest: &str, version: u32, references: &mut [ReferenceFrame]) -> Result<(), String> {
+    if version < 2 {
+        return Err(format!(
+            "`layer` statements need trace format version 2; the first line says `postwarp-trace {version}`"
+        ));
+    }
+    let (index, fields) = rest.split_once(char::is_whitespace).unwrap_or((rest, ""));
+    let n = references.len();
+    let i = match index.parse::<usize>() {
+        Ok(i) if i < n => i,
+        _ => {
+            return Err(format!(
+                "layer index `{index}`; expected a reference declared before it (0 to {})",
+                n.checked_sub(1).map_or("none yet".to_string(), |m| m.to_string())
+            ));
+        }
+    };
+    let mut f = Fields::parse(fields)?;
+    let layer = layers::parse_layer_fields(&mut f)?;
+    f.finish()?;
+    let slot = match layer {
+        layers::LayerStatement::Fragments { .. } => &mut references[i].layers.fragments,
+        layers::LayerStatement::RayTree { .. } => &mut references[i].layers.raytree,
+    };
+    if slot.is_some() {
+        return Err(format!("second `{}` layer for reference {i}; expected at most one of each kind", layer.kind()));
+    }
+    *slot = Some(layer);
+    Ok(())
 }
 
 fn parse_display(rest: &str) -> Result<Display, String> {
@@ -135,7 +174,7 @@ fn parse_reference(f: &mut Fields, d: Display) -> Result<ReferenceFrame, String>
     let (width, height) = (parse_side(w, "width")?, parse_side(h, "height")?);
     check_samples(width, height, d.supersample)?;
     let camera = parse_camera(f, width, height)?;
-    Ok(ReferenceFrame { time_s, camera, image })
+    Ok(ReferenceFrame { time_s, camera, image, layers: Default::default() })
 }
 
 fn parse_derived(f: &mut Fields, d: Display) -> Result<DerivedFrame, String> {
@@ -189,12 +228,12 @@ fn check_side(what: &str, v: u32) -> Result<u32, String> {
 }
 
 /// `key=value` fields of one statement.
-struct Fields {
+pub(super) struct Fields {
     map: BTreeMap<String, String>,
 }
 
 impl Fields {
-    fn parse(s: &str) -> Result<Fields, String> {
+    pub(super) fn parse(s: &str) -> Result<Fields, String> {
         let mut map = BTreeMap::new();
         for tok in s.split_whitespace() {
             let (k, v) = tok.split_once('=').ok_or_else(|| format!("`{tok}` is not a key=value field"))?;
@@ -209,11 +248,11 @@ impl Fields {
         self.map.contains_key(key)
     }
 
-    fn take(&mut self, key: &str) -> Result<String, String> {
+    pub(super) fn take(&mut self, key: &str) -> Result<String, String> {
         self.map.remove(key).ok_or_else(|| format!("missing field `{key}=`"))
     }
 
-    fn num<T: std::str::FromStr>(&mut self, key: &str) -> Result<T, String> {
+    pub(super) fn num<T: std::str::FromStr>(&mut self, key: &str) -> Result<T, String> {
         let v = self.take(key)?;
         v.parse().map_err(|_| format!("{key} = `{v}` is not a valid number"))
     }
@@ -249,7 +288,7 @@ impl Fields {
         Ok(out)
     }
 
-    fn path(&mut self, key: &str) -> Result<PathBuf, String> {
+    pub(super) fn path(&mut self, key: &str) -> Result<PathBuf, String> {
         let v = self.take(key)?;
         if v.is_empty() {
             return Err(format!("{key} is empty; expected a path relative to the manifest"));
@@ -257,7 +296,7 @@ impl Fields {
         Ok(PathBuf::from(v))
     }
 
-    fn finish(self) -> Result<(), String> {
+    pub(super) fn finish(self) -> Result<(), String> {
         match self.map.keys().next() {
             None => Ok(()),
             Some(k) => Err(format!("unknown field `{k}`")),

@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 
 /// The manifest text of `t`.
 pub fn format_manifest(t: &Trace) -> String {
-    let mut s = format!("postwarp-trace {TRACE_VERSION}\n");
+    let mut s = format!("postwarp-trace {}\n", t.format_version());
     for n in &t.notes {
         let _ = writeln!(s, "note {n}");
     }
@@ -26,6 +26,9 @@ pub fn format_manifest(t: &Trace) -> String {
             k.height,
             camera_fields(&r.camera)
         );
+        for l in r.layers.iter() {
+            let _ = writeln!(s, "layer {i} {}", l.fields());
+        }
     }
     for (i, f) in t.derived.iter().enumerate() {
         let refs: Vec<String> = f.references.iter().map(|r| r.to_string()).collect();
@@ -86,6 +89,20 @@ impl TraceWriter {
         image: &SampleImage,
         slopes: SlopeSource,
     ) -> Result<usize, TraceError> {
+        self.add_reference_with_layers(time_s, camera, image, slopes, &layers::Layers::default())
+    }
+
+    /// Add a reference frame with its v2 layers: the image as
+    /// `ref/NNNN.exr`, a fragment layer as `ref/NNNN-fragments.exr`, a ray
+    /// tree as `ref/NNNN-raytree.exr` (each the image's sample grid).
+    pub fn add_reference_with_layers(
+        &mut self,
+        time_s: f64,
+        camera: Camera,
+        image: &SampleImage,
+        slopes: SlopeSource,
+        with: &layers::Layers,
+    ) -> Result<usize, TraceError> {
         let ss = self.trace.display.supersample;
         let i = self.trace.references.len();
         let rel = PathBuf::from(format!("ref/{i:04}.exr"));
@@ -96,8 +113,31 @@ impl TraceWriter {
                 format!("reference image is {}x{} samples; expected {}x{}", image.width, image.height, want.0, want.1),
             ));
         }
+        let mut decl = layers::ReferenceLayers::default();
+        let size_err = |rel: &Path, what: &str, w: u32, h: u32| {
+            TraceError::file(
+                &self.trace.dir.join(rel),
+                format!("{what} layer is {w}x{h} samples; expected the image's {}x{}", want.0, want.1),
+            )
+        };
+        if let Some(f) = &with.fragments {
+            let rel = PathBuf::from(format!("ref/{i:04}-fragments.exr"));
+            if (f.width, f.height) != want {
+                return Err(size_err(&rel, "fragment", f.width, f.height));
+            }
+            layers::write_fragment_layer(&self.trace.dir.join(&rel), f)?;
+            decl.fragments = Some(layers::LayerStatement::Fragments { image: rel, max: f.max });
+        }
+        if let Some(t) = &with.raytree {
+            let rel = PathBuf::from(format!("ref/{i:04}-raytree.exr"));
+            if (t.width, t.height) != want {
+                return Err(size_err(&rel, "ray-tree", t.width, t.height));
+            }
+            layers::write_ray_tree_layer(&self.trace.dir.join(&rel), t)?;
+            decl.raytree = Some(layers::LayerStatement::RayTree { image: rel, materials: t.materials.clone() });
+        }
         write_reference_image(&self.trace.dir.join(&rel), image, slopes)?;
-        self.trace.references.push(ReferenceFrame { time_s, camera, image: rel });
+        self.trace.references.push(ReferenceFrame { time_s, camera, image: rel, layers: decl });
         Ok(i)
     }
 
