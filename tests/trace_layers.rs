@@ -44,8 +44,7 @@ fn layers() -> Layers {
     let mut f = FragmentLayer::empty(12, 8, 3);
     for i in 0..f.len() {
         f.opaque[i] = [0.75, 0.5, 0.25];
-        let n = (i % 4) as usize;
-        let n = n.min(3);
+        let n = (i % 4).min(3);
         f.count[i] = n as u8;
         for k in 0..n {
             f.fragments[i * 3 + k] = Fragment {
@@ -351,7 +350,7 @@ fn make_trace_gallery_writes_a_v2_trace_that_info_reads_and_simulate_ignores() {
     let l = t.load_layers(0).unwrap();
     let f = l.fragments.unwrap();
     assert_eq!(f.max, 2);
-    assert!(f.count.iter().any(|&c| c == 2), "two rows of windows: some rays cross two panes");
+    assert!(f.count.contains(&2), "two rows of windows: some rays cross two panes");
     let rt = l.raytree.unwrap();
     assert_eq!(rt.materials, vec![SpecularMaterial::Mirror, SpecularMaterial::Dielectric { ior: 1.5 }]);
     assert!((0..rt.len()).any(|i| rt.has(i, Node::Reflect)) && (0..rt.len()).any(|i| rt.has(i, Node::Refract)));
