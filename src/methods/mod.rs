@@ -18,11 +18,16 @@
 //!    [`Reconstruction::reconstruct`] plus [`HoleFill::fill`] on one
 //!    thread, into an output frame allocated before the clock starts.
 //! 3. `primitives` counts what the method draws (splats, quads, triangles,
-//!    rectangles); [`MethodInfo::primitive`] names the unit.
+//!    rectangles) or the work it does per ray or pixel (quadtree cells
+//!    visited, gradient steps); [`MethodInfo::primitive`] names the unit.
+//! 4. A method that warps a v2 trace's layers receives them in
+//!    [`Reconstruction::prepare_layers`]; the others see only the
+//!    reference image (the composited colour).
 
 pub mod baselines;
 pub mod didyk;
 pub mod hole_fills;
+pub mod lochmann;
 pub mod mark;
 pub mod schollmeyer;
 pub mod smit;
@@ -32,8 +37,9 @@ mod test_frames;
 use crate::golden::config::GoldenConfig;
 use crate::golden::planes::DestPlanes;
 use crate::golden::resolve::resolve;
+use crate::trace::layers::Layers;
 use bitvec::vec::BitVec;
-use postwarp_rtl::{FrameCommands, SampleImage};
+use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 use serde_json::{Map, Value};
 use std::any::Any;
 
@@ -102,6 +108,16 @@ pub trait Reconstruction: Send + Sync {
         Box::new(())
     }
 
+    /// [`Reconstruction::prepare`] with the reference's v2 layers
+    /// (transparent fragments, ray tree; both `None` for a v1 trace) and its
+    /// camera (in pixels, as the trace gives it; `camera.sample_grid(ss)`
+    /// is the image's). The default ignores both: a method that warps only
+    /// the reference image sees a v2 trace's composited colour, as the
+    /// hardware model does.
+    fn prepare_layers(&self, img: &SampleImage, _layers: &Layers, _camera: &Camera, ss: u32) -> Prepared {
+        self.prepare(img, ss)
+    }
+
     /// Write the derived samples of `input` into `out` (empty, the
     /// sample-grid size): set `real`, `colour`, `inv_z` and `source` of
     /// every sample a surface covers.
@@ -167,10 +183,14 @@ pub fn reconstructions() -> Vec<Box<dyn Reconstruction>> {
         Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Cross)),
         Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Partial)),
         Box::new(schollmeyer::grid::Schollmeyer::new(schollmeyer::quadtree::Reduction::Irregular)),
+        Box::new(schollmeyer::transparent::SchollmeyerTransparent::new(schollmeyer::transparent::Mode::RayCast)),
+        Box::new(schollmeyer::transparent::SchollmeyerTransparent::new(schollmeyer::transparent::Mode::GlassDepth)),
         Box::new(smit::point::SmitPoint::default()),
         Box::new(smit::quad::SmitQuad::default()),
         Box::new(smit::mesh::SmitMesh::default()),
         Box::new(smit::mesh::SmitMesh::connected()),
+        Box::new(lochmann::Lochmann::ray_tree()),
+        Box::new(lochmann::Lochmann::naive()),
     ]
 }
 

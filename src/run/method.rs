@@ -84,8 +84,9 @@ pub fn measure_method(
         for &r in &f.references {
             if let std::collections::hash_map::Entry::Vacant(e) = loaded.entry(r) {
                 let img = trace.load_reference(r)?.samples;
+                let layers = trace.load_layers(r)?;
                 let t = Instant::now();
-                let p = rec.prepare(&img, ss);
+                let p = rec.prepare_layers(&img, &layers, &trace.references[r].camera, ss);
                 prepare_ms += t.elapsed().as_secs_f64() * 1e3;
                 e.insert((img, p));
             }

@@ -33,7 +33,10 @@
 //!   `max_fragments` fragments of each sample, nearest first, with the
 //!   opaque surface's radiance behind them (fragment layer); the ray tree
 //!   at that surface (`shade::Nodes`, material index from the scene's
-//!   table); the non-diffuse mask: the ray met a fragment, or its surface
+//!   table), where a sample behind fragments has them composited over its
+//!   root node and their transmittance multiplied into its child nodes
+//!   (view-independent, like a tint), so that the root plus the
+//!   Fresnel-weighted children is the sample's colour; the non-diffuse mask: the ray met a fragment, or its surface
 //!   reflects or refracts.
 //!
 //! Not modelled: lens effects, anti-aliasing beyond what the caller's
@@ -110,6 +113,18 @@ pub fn render(scene: &Scene, camera: &Camera, ss: u32, max_fragments: u32) -> Re
         nodes.depth[Node::Diffuse as usize] = t as f32;
         let material = scene.specular_index(&oh);
         let colour = composite(&walk.fragments, nodes.radiance);
+        let opaque = nodes.radiance;
+        if !walk.fragments.is_empty() {
+            // The ray tree of a sample behind fragments: the root holds them
+            // composited over the diffuse part, the children carry their
+            // transmittance like a tint (so root + weighted children is still
+            // the sample's colour).
+            let t = walk.fragments.iter().fold(1.0f32, |t, f| t * (1.0 - f.alpha));
+            nodes.colour[Node::Diffuse as usize] = composite(&walk.fragments, nodes.colour[Node::Diffuse as usize]);
+            for node in [Node::Reflect, Node::Refract] {
+                nodes.colour[node as usize] = nodes.colour[node as usize].map(|c| c * t);
+            }
+        }
         let hit = oh.hit;
         let n = hit.normal;
         // Tangent plane in camera space: n_c·X = d with X = t·d_cam.
@@ -132,7 +147,7 @@ pub fn render(scene: &Scene, camera: &Camera, ss: u32, max_fragments: u32) -> Re
             id: oh.object as u32 + 1,
             valid: true,
             fragments,
-            opaque: nodes.radiance,
+            opaque,
             tree: Some((nodes, material)),
             nondiffuse: !walk.fragments.is_empty() || material != 0,
         }
