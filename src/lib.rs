@@ -18,6 +18,7 @@ pub mod path;
 pub mod picture;
 pub mod progress;
 pub mod report;
+pub mod rescore;
 pub mod run;
 pub mod scene;
 pub mod size;

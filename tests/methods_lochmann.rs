@@ -8,7 +8,7 @@
 use glam::DVec3;
 use postwarp::methods::lochmann::decode::Decoded;
 use postwarp::methods::lochmann::specular::{self, EPSILON_DEG};
-use postwarp::methods::{self, Input, NoFill, Prepared, Reconstruction};
+use postwarp::methods::{self, Input, NoFill, Prepared};
 use postwarp::scene::Scene;
 use postwarp::trace::layers::{Layers, Node};
 use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose, SampleImage};
@@ -223,9 +223,9 @@ radius = 18.0
         let truth = s.render(&new_cam, 1);
         let err = |img: &[[f32; 3]]| {
             let (mut e, mut n) = (0.0, 0);
-            for i in 0..img.len() {
+            for (i, c) in img.iter().enumerate() {
                 if truth.object_id[i] == 1 {
-                    e += (0..3).map(|k| (img[i][k] - truth.colour[i][k]).abs() as f64).sum::<f64>();
+                    e += (0..3).map(|k| (c[k] - truth.colour[i][k]).abs() as f64).sum::<f64>();
                     n += 3;
                 }
             }

@@ -8,6 +8,7 @@ mod import;
 mod info;
 pub mod make_trace;
 mod methods;
+mod score;
 mod simulate;
 mod size;
 mod sweep;
@@ -81,6 +82,11 @@ enum Command {
     /// Draw the charts of a sweep's results.csv again (same CSV, same
     /// bytes).
     Chart(chart::Args),
+    /// Score the frames runs wrote (golden, golden --method, simulate,
+    /// compare) against the trace's ground truth over the whole image and
+    /// over the pixels its non-diffuse mask marks as specular or
+    /// transparent (docs/non-diffuse.md).
+    Score(score::Args),
 }
 
 /// Parse the process arguments and run; errors are printed to stderr.
@@ -108,5 +114,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sweep(a) => sweep::run(a),
         Command::Size(a) => size::run(a),
         Command::Chart(a) => chart::run(a),
+        Command::Score(a) => score::run(a),
     }
 }

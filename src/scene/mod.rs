@@ -154,11 +154,16 @@ pub struct Rendered {
     pub nondiffuse: bitvec::vec::BitVec,
 }
 
-fn specular_table(materials: &[texture::Material]) -> (Vec<crate::trace::layers::SpecularMaterial>, Vec<u8>) {
+/// The ray-tree material table of the materials some object uses, in
+/// material order, deduplicated; and each material's 1-based index in it.
+fn specular_table(world: &world::World) -> (Vec<crate::trace::layers::SpecularMaterial>, Vec<u8>) {
     let mut table = Vec::new();
-    let index = materials
+    let used: Vec<bool> = (0..world.materials.len()).map(|m| world.objects.iter().any(|o| o.material == m)).collect();
+    let index = world
+        .materials
         .iter()
-        .map(|m| match m.optics.specular_material() {
+        .zip(used)
+        .map(|(m, used)| match m.optics.specular_material().filter(|_| used) {
             None => 0,
             Some(s) => match table.iter().position(|t| *t == s) {
                 Some(k) => k as u8 + 1,
@@ -237,7 +242,7 @@ impl Scene {
     /// scene in error messages.
     pub fn from_toml_str(text: &str, base_dir: Option<&Path>, origin: &str) -> Result<Scene, SceneError> {
         let c = description::compile(text, base_dir, origin)?;
-        let specular_table = specular_table(&c.world.materials);
+        let specular_table = specular_table(&c.world);
         if specular_table.0.len() > crate::trace::layers::MAX_MATERIALS {
             return Err(SceneError::new(
                 origin,
@@ -337,16 +342,16 @@ impl Scene {
         (0..self.world.objects.len()).filter(|&i| self.is_nondiffuse_object(i)).count()
     }
 
-    /// True if some material is semi-transparent (a v2 trace of the scene
-    /// has fragment layers).
+    /// True if some object's material is semi-transparent (a v2 trace of
+    /// the scene has fragment layers).
     pub fn has_transparency(&self) -> bool {
-        self.world.materials.iter().any(|m| m.optics.is_transparent())
+        self.world.objects.iter().any(|o| self.world.materials[o.material].optics.is_transparent())
     }
 
-    /// True if some material reflects or refracts (a v2 trace of the scene
-    /// has ray-tree layers).
+    /// True if some object's material reflects or refracts (a v2 trace of
+    /// the scene has ray-tree layers).
     pub fn has_specular(&self) -> bool {
-        self.world.materials.iter().any(|m| m.optics.is_specular())
+        self.world.objects.iter().any(|o| self.world.materials[o.material].optics.is_specular())
     }
 
     /// This scene with every object of a semi-transparent, mirror or

@@ -46,15 +46,16 @@ pub fn hash_str(s: &str) -> String {
 }
 
 /// The content identity of a trace: a hash of its manifest and of every
-/// image file the manifest names (references, then ground truth, in
-/// manifest order), each with its name. Two traces with the same bytes
+/// image file the manifest names (references with their v2 layers, then
+/// ground truth, in manifest order), each with its name. Two traces with the same bytes
 /// have the same identity wherever they are.
 pub fn trace_identity(trace: &Trace) -> anyhow::Result<String> {
     let mut h = Fnv::default();
     let read = |p: &std::path::Path| std::fs::read(p).with_context(|| format!("reading {}", p.display()));
     h.field(&read(&trace.manifest)?);
-    let files = trace.references.iter().map(|r| &r.image).chain(trace.derived.iter().filter_map(|d| d.truth.as_ref()));
-    for f in files {
+    // Reference images with their v2 layers, then the truths (a v1 trace:
+    // the images alone, as before layers existed).
+    for f in trace.image_files() {
         h.field(f.to_string_lossy().as_bytes());
         h.field(&read(&trace.dir.join(f))?);
     }

@@ -75,6 +75,12 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
         "stress: the scene's rods scaled about their centre, radius and all (0 to 50)",
         "rod_scale",
     ),
+    (
+        "nondiffuse_scale",
+        "factor",
+        "stress: the scene's semi-transparent, mirror and refracting objects scaled about their bases (0 to 10)",
+        "nondiffuse_scale",
+    ),
 ];
 
 /// The stress keys (the last of [`TRACE_FIELDS`]): hashed into a generated
@@ -90,6 +96,7 @@ pub const STRESS_FIELDS: &[&str] = &[
     "depth_range_scale",
     "rod_radius_scale",
     "rod_scale",
+    "nondiffuse_scale",
 ];
 
 fn whole(v: &toml::Value, lo: u64, hi: u64, unit: &str) -> Result<u64, String> {
@@ -149,6 +156,10 @@ pub fn set(spec: &mut TraceSpec, key: &str, v: &toml::Value) -> Result<(), Strin
             let x = in_range(v, |x| x > 0.0 && x <= max, &format!("a factor in (0, {max}]"))?;
             if key == "rod_scale" { spec.rod_scale = x } else { spec.rod_radius_scale = x }
         }
+        "nondiffuse_scale" => {
+            let max = crate::tracegen::MAX_NONDIFFUSE_SCALE;
+            spec.nondiffuse_scale = in_range(v, |x| x > 0.0 && x <= max, &format!("a factor in (0, {max}]"))?;
+        }
         _ => return Err("not a trace field".into()),
     }
     Ok(())
@@ -182,6 +193,7 @@ pub fn get(spec: &TraceSpec, key: &str) -> String {
         "depth_range_scale" => spec.depth_range_scale.to_string(),
         "rod_radius_scale" => spec.rod_radius_scale.to_string(),
         "rod_scale" => spec.rod_scale.to_string(),
+        "nondiffuse_scale" => spec.nondiffuse_scale.to_string(),
         _ => String::new(),
     }
 }
@@ -216,7 +228,7 @@ mod tests {
             };
             assert_eq!(real(&back).ok(), real(&v).ok(), "{k}");
         }
-        assert_eq!(TRACE_FIELDS.len(), 22);
+        assert_eq!(TRACE_FIELDS.len(), 23);
         for (k, v) in [
             ("derived_offset_x", 0.5),
             ("derived_offset_z", -1.0),
@@ -226,6 +238,7 @@ mod tests {
             ("depth_range_scale", 1024.0),
             ("rod_radius_scale", 0.25),
             ("rod_scale", 4.0),
+            ("nondiffuse_scale", 1.5),
         ] {
             let val = if k == "depth_bits" { toml::Value::Integer(v as i64) } else { toml::Value::Float(v) };
             set(&mut s, k, &val).unwrap();

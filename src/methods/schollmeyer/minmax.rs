@@ -61,11 +61,14 @@ const NUDGE: f64 = 1e-7;
 /// recede in the reference (scene units).
 const FAR: f64 = 1e6;
 
+/// One level: width, height (nodes) and each node's (min, max) depth.
+type Level = (usize, usize, Vec<(f32, f32)>);
+
 /// Per-sample depth ranges and their reductions (rule 1).
 #[derive(Clone, Debug)]
 pub struct MinMaxQuadtree {
-    /// Levels 0 to `TOP_LEVEL`: (width, height, (min, max) per node).
-    levels: Vec<(usize, usize, Vec<(f32, f32)>)>,
+    /// Levels 0 to `TOP_LEVEL`.
+    levels: Vec<Level>,
 }
 
 const EMPTY: (f32, f32) = (f32::INFINITY, f32::NEG_INFINITY);
@@ -161,7 +164,7 @@ impl Segment {
         if t1.is_infinite() && b.z <= 0.0 {
             t1 = FAR;
         }
-        if !(t1 > t0) {
+        if t1.partial_cmp(&t0) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
         let k = reference.intrinsics;
@@ -193,7 +196,7 @@ impl Segment {
                 }
             }
         }
-        if !(u1 >= u0) || !u0.is_finite() || !u1.is_finite() {
+        if u1 < u0 || !u0.is_finite() || !u1.is_finite() {
             return None;
         }
         let start = s0 + d * u0;
@@ -243,8 +246,16 @@ impl Segment {
     }
 }
 
-/// Rule 4 at sample `(i, j)` for the segment part `[sa, sb]`: its hits.
-fn test_sample(seg: &Segment, layer: &FragmentLayer, i: i64, j: i64, sa: f64, sb: f64, kappa: f64, out: &mut Vec<Hit>) {
+/// Rule 4 at sample `(i, j)` for the segment part `span`: its hits.
+fn test_sample(
+    seg: &Segment,
+    layer: &FragmentLayer,
+    (i, j): (i64, i64),
+    span: (f64, f64),
+    kappa: f64,
+    out: &mut Vec<Hit>,
+) {
+    let (sa, sb) = span;
     if i < 0 || j < 0 || i >= layer.width as i64 || j >= layer.height as i64 {
         return;
     }
@@ -306,7 +317,7 @@ pub fn cast(seg: &Segment, tree: &MinMaxQuadtree, layer: &FragmentLayer, kappa: 
                 level -= 1;
                 continue;
             }
-            test_sample(seg, layer, i as i64, j as i64, s, exit.max(s), kappa, &mut found);
+            test_sample(seg, layer, (i as i64, j as i64), (s, exit.max(s)), kappa, &mut found);
             if !keep(&mut found, &mut c.hits, &mut opacity, kappa, threshold) {
                 break;
             }
@@ -338,7 +349,7 @@ pub fn brute_force(seg: &Segment, layer: &FragmentLayer, kappa: f64, threshold: 
         let (i, j) = (p.x.floor(), p.y.floor());
         let exit = seg.exit(i, j, 1.0);
         c.cells_visited += 1;
-        test_sample(seg, layer, i as i64, j as i64, s, exit.max(s), kappa, &mut found);
+        test_sample(seg, layer, (i as i64, j as i64), (s, exit.max(s)), kappa, &mut found);
         if !keep(&mut found, &mut c.hits, &mut opacity, kappa, threshold) || exit >= seg.len {
             break;
         }
