@@ -242,3 +242,25 @@ radius = 18.0
         }
     }
 }
+
+/// The rebuilt normals of a mirrored sphere 16 samples in radius: the
+/// median error against the analytic normal (printed with --nocapture).
+#[test]
+fn rebuilt_normals_of_a_sphere_are_within_half_a_degree_at_the_median() {
+    let text = format!(
+        "[[objects]]\nkind = \"sphere\"\ncentre = [0.0, 0.0, 5.0]\nradius = 1.5\n[[objects]]\nkind = \"box\"\n\
+         centre = [0.0, 0.0, 2.0]\nhalf_size = [10.0, 10.0, 10.0]\n{SPLINE}"
+    );
+    let s = Scene::from_toml_str(&text, None, "s.toml").unwrap();
+    let cam = camera(0.0);
+    let img = s.render(&cam, 1);
+    let d = Decoded::new(&img, None, &cam);
+    let mut err: Vec<f64> = (0..img.len())
+        .filter(|&i| img.object_id[i] == 1)
+        .map(|i| angle_deg(d.normal[i], d.diffuse[i].unwrap() - DVec3::new(0.0, 0.0, 5.0)))
+        .collect();
+    err.sort_by(f64::total_cmp);
+    let median = err[err.len() / 2];
+    println!("sphere normals: {} samples, median error {median:.2} deg", err.len());
+    assert!(err.len() > 500 && median < 0.5, "{median}");
+}

@@ -383,3 +383,18 @@ fn make_trace_gallery_writes_a_v2_trace_that_info_reads_and_simulate_ignores() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("r/report.json")).unwrap()).unwrap();
     assert_eq!(report["ignored_layers"], serde_json::json!([]));
 }
+
+#[test]
+fn the_documented_layer_example_parses() {
+    let doc = std::fs::read_to_string(root().join("docs/trace-format.md")).unwrap();
+    let ex = doc.find("Example (the first reference of a `gallery` trace)").expect("layer example");
+    let start = ex + doc[ex..].find("```\n").expect("example block") + 4;
+    let end = start + doc[start..].find("```").unwrap();
+    let text = format!(
+        "postwarp-trace 2\ndisplay width=128 height=96 supersample=2\n{}derived 0 time=0 refs=0 fx=110 fy=110 cx=63.5 \
+         cy=47.5 position=0,0,0 orientation=0,0,0,1\n",
+        &doc[start..end]
+    );
+    let t = parse_manifest(&text, Path::new("docs/trace-format.md")).unwrap();
+    assert_eq!(t.layer_kinds(), vec!["fragments", "raytree"]);
+}

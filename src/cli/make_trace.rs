@@ -60,6 +60,22 @@ pub struct Args {
     /// layer); the rendered colour composites all of them regardless.
     #[arg(long, default_value_t = 4)]
     pub fragments: u32,
+    /// Stress: every derived camera moved from its path pose by X,Y,Z in
+    /// its own camera frame (x right, y down, z forward; scene units).
+    #[arg(long, default_value = "0,0,0", value_parser = parse_offset)]
+    pub derived_offset: [f64; 3],
+    /// Stress: every semi-transparent, mirror and refracting object scaled
+    /// by this factor about the middle of its base (0 to 10).
+    #[arg(long, default_value_t = 1.0)]
+    pub nondiffuse_scale: f64,
+}
+
+fn parse_offset(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|_| format!("`{x}` is not a number of scene units")))
+        .collect::<Result<_, _>>()?;
+    <[f64; 3]>::try_from(v).map_err(|_| format!("`{s}`: expected X,Y,Z, e.g. 0.2,0,0"))
 }
 
 fn parse_fov(s: &str) -> Result<(f64, f64), String> {
@@ -85,6 +101,8 @@ impl Args {
             start_s: self.start,
             truth: !self.no_truth,
             fragments: self.fragments,
+            derived_offset: self.derived_offset,
+            nondiffuse_scale: self.nondiffuse_scale,
             ..TraceSpec::default()
         }
     }
