@@ -78,7 +78,7 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
     (
         "nondiffuse_scale",
         "factor",
-        "stress: the scene's semi-transparent, mirror and refracting objects scaled about their bases (0 to 10)",
+        "stress: the non-diffuse objects (windows, mirrors, glass) scaled about their bases",
         "nondiffuse_scale",
     ),
 ];

@@ -6,13 +6,13 @@
 //!   diffuse positions, normals rebuilt with the 7x7 Gaussian, reflected
 //!   and refracted positions); per derived frame, the diffuse flow by
 //!   splatting with the 3x3 nearest-to-camera closing and one fixed-point
-//!   step (`flow`), the diffuse node gathered along it and hole-filled (the
-//!   frame's hole fill, the paper's pull-push by default), then for each
+//!   step (`flow`), the diffuse node gathered along it, then for each
 //!   of the reflection and refraction nodes the specular flow by gradient
 //!   descent (`specular`), a pull-push fill of that node that "skips
 //!   pulling and pushing from and to invalid pixels", and the composite
 //!   "weighted by the Fresnel terms computed from the view position, the
-//!   normals and the IORs" of the new view;
+//!   normals and the IORs" of the new view, hole-filled by the frame's
+//!   hole fill (the paper's pull-push by default);
 //! - `lochmann-naive`: the same diffuse flow and fill applied to the
 //!   reference image's composited colour ("naïve diffuse warping", Fig. 7
 //!   left): every reflection and refraction moves with the surface that
@@ -24,7 +24,11 @@
 //! 2. A node exists at a derived sample iff the diffuse flow reached it
 //!    (a real sample, not hole fill) and the node is valid at its source
 //!    sample; elsewhere it is *undefined*: neither data nor a target of
-//!    its pull-push (hole-filled diffuse samples get no specular light).
+//!    its pull-push. Diffuse holes are filled after the composite (rule
+//!    4), by the frame's hole fill over the composited colour, as the naïve
+//!    warp's are: a mirror disoccluded in every reference takes the
+//!    composited colour of the mirror around it, not its (black) diffuse
+//!    part.
 //! 3. Gathers: the diffuse node's colour and position at the flow's
 //!    sub-sample location are the bilinear mix of the four samples around
 //!    it that lie on the source sample's surface (a diffuse depth within
@@ -193,18 +197,21 @@ impl Lochmann {
         flow
     }
 
-    /// Diffuse flow, the fill (if any), the specular nodes.
+    /// Diffuse flow, the specular nodes and composite, the fill (if any).
     fn run(&self, input: &Input, fill: Option<&dyn HoleFill>, out: &mut DestPlanes) -> (Counters, Counters) {
         let preps = Self::preps(input);
         let owned = Self::decoded(input, &preps);
         let dec: Vec<&Decoded> = owned.iter().map(|d| d.as_ref()).collect();
         let flow = self.diffuse(input, &preps, &dec, out);
-        let f = fill.map(|f| f.fill(input, out)).unwrap_or_default();
         let r = if self.naive {
             Counters { primitives: flow.splats, extra: self.flow_counters(&flow) }
         } else {
             self.specular(input, &preps, &dec, &flow, out)
         };
+        // Rule 2: the frame's fill runs over the composite, so a hole where a
+        // mirror was hidden in every reference takes the mirror's composited
+        // colour around it (not its black diffuse part).
+        let f = fill.map(|f| f.fill(input, out)).unwrap_or_default();
         (r, f)
     }
 
@@ -215,7 +222,7 @@ impl Lochmann {
         extra
     }
 
-    /// The specular nodes (rules 2–4) over the filled diffuse `out`.
+    /// The specular nodes (rules 2–4) over the diffuse `out` (before its fill).
     fn specular(
         &self,
         input: &Input,
