@@ -148,12 +148,13 @@ fn bad_stress_values_are_refused_with_the_key() {
     assert!(err.contains("derived_roll[1]") && err.contains("[-180, 180]"), "{err}");
 }
 
-#[test]
-fn committed_stability_charts_are_postwarp_chart_output() {
+/// Every `stability-*.csv` in `results` charted by `postwarp chart` gives
+/// exactly the committed `stability.*` charts of `charts`, and no other.
+fn check_committed_charts(results: &str, charts: &str) {
     let d = tempfile::tempdir().unwrap();
-    let committed = root().join("docs/charts/stability");
+    let committed = root().join(charts);
     let mut n = 0;
-    for e in std::fs::read_dir(root().join("docs/results")).unwrap() {
+    for e in std::fs::read_dir(root().join(results)).unwrap() {
         let csv_path = e.unwrap().path();
         let name = csv_path.file_name().unwrap().to_string_lossy().into_owned();
         if !name.starts_with("stability-") {
@@ -172,9 +173,21 @@ fn committed_stability_charts_are_postwarp_chart_output() {
             assert_eq!(
                 std::fs::read(&f).unwrap(),
                 std::fs::read(committed.join(&file)).unwrap_or_default(),
-                "run: postwarp chart docs/results/{name} --out OUT and copy OUT/stability.* to docs/charts/stability/ ({file})"
+                "run: postwarp chart {results}/{name} --out OUT and copy OUT/stability.* to {charts}/ ({file})"
             );
         }
     }
-    assert_eq!(n, std::fs::read_dir(&committed).unwrap().count(), "a committed chart no CSV gives");
+    assert_eq!(n, std::fs::read_dir(&committed).unwrap().count(), "a committed chart in {charts} no CSV gives");
+}
+
+#[test]
+fn committed_stability_charts_are_postwarp_chart_output() {
+    check_committed_charts("docs/results", "docs/charts/stability");
+}
+
+/// The non-diffuse study's charts over the specular and transparent pixels
+/// (`postwarp score --sweep ... --region mask`, `docs/non-diffuse.md`).
+#[test]
+fn committed_non_diffuse_region_charts_are_postwarp_chart_output() {
+    check_committed_charts("docs/results/non-diffuse", "docs/charts/non-diffuse");
 }
