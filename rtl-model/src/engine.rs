@@ -48,25 +48,24 @@ use crate::cmd::FrameCommands;
 use crate::config::{CACHE_BYTES_PER_SAMPLE, EngineConfig};
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
-use crate::mem::{Access, Client, Dram, dram::DramCounters};
+use crate::mem::{Access, Client, Dram};
 use crate::sample_image::SampleImage;
 use crate::schedule::{CoarseDepth, Schedule, release_order};
 use crate::traversal::{Major, reverse_lines};
 use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReference};
 use crate::units::composite::{Candidate, Verdict, composite};
-use crate::units::fetch::{BlockState, SourceCache, SourceCacheCounters};
+use crate::units::fetch::{BlockState, SourceCache};
 use crate::units::hole_fill::{FillOutcome, HoleFillParams, HoleFillUnit};
 use crate::units::kernel_setup::{Group, backward_step, bounding_box, corners, group, one_surface};
 use crate::units::raster::{Stamp, stamp};
 use crate::units::resolve::resolve;
-use crate::units::tile_cache::{Lookup, TileCache, TileCacheCounters, TileState};
+use crate::units::tile_cache::{Lookup, TileCache, TileState};
 use crate::units::transform::{TransformUnit, Warped};
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use std::collections::VecDeque;
 
-/// The units whose cycles are accounted, in report order.
-pub const UNITS: [&str; 7] = ["fetch", "transform", "kernel_setup", "raster", "composite", "hole_fill", "abuffer"];
+pub use crate::frame_stats::{FrameStats, RECT_HIST_MAX, UNITS, UnitCycles};
 const FETCH: usize = 0;
 const TRANSFORM: usize = 1;
 const KERNEL: usize = 2;
@@ -74,69 +73,6 @@ const RASTER: usize = 3;
 const COMPOSITE: usize = 4;
 const HOLE_FILL: usize = 5;
 const ABUFFER: usize = 6;
-
-/// Busy, stalled and idle cycles of one unit (cycles).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct UnitCycles {
-    /// Cycles the unit moved work.
-    pub busy: u64,
-    /// Cycles it had work but waited.
-    pub stall: u64,
-    /// Cycles it had nothing to do.
-    pub idle: u64,
-}
-
-/// Largest rectangle side tracked in [`FrameStats::rects`].
-pub const RECT_HIST_MAX: usize = 8;
-
-/// Counters of one derived frame (units in the field docs; ratios are
-/// derived by reports).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FrameStats {
-    /// Engine cycles from the first fetch to the last display read (cycles).
-    pub cycles: u64,
-    /// DRAM counters (bytes per client, requests, latency).
-    pub dram: DramCounters,
-    /// Destination tile cache counters.
-    pub dest_cache: TileCacheCounters,
-    /// Source cache counters, over all warps.
-    pub source_cache: SourceCacheCounters,
-    /// Destination tiles brought into the cache, per reference warp (tiles).
-    pub tile_loads: Vec<u64>,
-    /// Destination tiles released and written back, per reference warp (tiles).
-    pub tile_evictions: Vec<u64>,
-    /// Reference samples streamed to the transform unit, over all warps (samples).
-    pub samples_transformed: u64,
-    /// Reference samples behind the derived camera (samples).
-    pub culled_samples: u64,
-    /// Kernels set up (kernels).
-    pub kernels: u64,
-    /// Rectangles rasterized by drawn size: `rects[w][h]` (rectangles).
-    pub rects: Vec<Vec<u64>>,
-    /// Kernels wider or taller than the stamp, clipped (kernels).
-    pub kernels_over_limit: u64,
-    /// Reference lines with a kernel that may reach the derived image (lines).
-    pub live_lines: u64,
-    /// Reference lines skipped as off-screen (lines).
-    pub dead_lines: u64,
-    /// Composite verdicts: filled, nearer, better, lost (samples).
-    pub composite: [u64; 4],
-    /// Hole samples filled, summed over passes (samples).
-    pub hole_fill_filled: u64,
-    /// Hole samples no tap reached, summed over passes (samples).
-    pub hole_fill_unreached: u64,
-    /// Derived samples holding hole fill at the end (samples).
-    pub hole_samples: u64,
-    /// Derived samples with neither surface nor fill at the end (samples).
-    pub empty_samples: u64,
-    /// Derived pixels by A-buffer fragments needed, over every write-back
-    /// of the frame (pixels; index = fragments).
-    pub fragments_per_pixel: Vec<u64>,
-    /// Merges forced by the fragment limit in derived write-backs (merges).
-    pub forced_merges: u64,
-    /// Per unit, in [`UNITS`] order.
-    pub units: [UnitCycles; 7],
-}
 
 /// A reference frame as it sits in memory, with the host-side expansion
 /// the fetch unit streams (unpacking is deterministic; the model does it

@@ -18,6 +18,7 @@ pub mod dest_frame;
 pub mod engine;
 pub mod fifo;
 pub mod fixed;
+pub mod frame_stats;
 pub mod mem;
 pub mod sample_image;
 pub mod schedule;
