@@ -4,8 +4,8 @@
 //! number of slots (backpressure) and a fixed transit time (pipeline
 //! registers on the path).
 //!
-//! API ([`Fifo`]): `new(capacity, latency)`; producer side `can_push(now)`,
-//! `push(now, item) -> Result<(), T>`; consumer side `can_pop(now)`,
+//! API ([`Fifo`]): `new(capacity, latency)`; producer side `offer(now)`,
+//! `push(now, item) -> Result<(), T>`, and `can_push(now)` for observers; consumer side `can_pop(now)`,
 //! `peek(now)`, `pop(now)`; `len`, `is_empty`, `capacity`, `latency`; counters
 //! in [`FifoCounters`] (`counters()`).
 //!
@@ -33,8 +33,16 @@
 //! refused. It is counted once per cycle however many pushes that cycle
 //! refused (several producers, or retries); `can_push` is a side-effect-free
 //! query and counts nothing, so a producer that only asks and does not try is
-//! not counted. Producers should therefore call `push` (and keep the returned
-//! item) rather than skip the attempt when `can_push` is false.
+//! not counted.
+//!
+//! The producer rule: a producer either calls `push` and keeps a refused
+//! item for a later cycle, or — when it must not consume its own input
+//! unless the FIFO takes the result (a unit with no output register, which
+//! accepts an input only when its output is ready) — first calls `offer`,
+//! which answers like `can_push` but counts a refusal as a refused push.
+//! A `push` in the same cycle after an accepted `offer` cannot be refused;
+//! the producer treats a refusal there as a bug. `can_push` is for
+//! observers (tests, reports), never for a producer's decision.
 //!
 //! Throughput/latency: up to `capacity` items in flight; each takes exactly
 //! `latency` cycles from push to visibility, plus any time it waits at the
@@ -135,16 +143,32 @@ impl<T> Fifo<T> {
         self.items.len() < self.capacity
     }
 
+    /// True if a `push` at `now` would be accepted; false counts as a
+    /// refused push (and the cycle as a full cycle), as a refused `push`
+    /// does (module doc, the producer rule).
+    pub fn offer(&mut self, now: Cycle) -> bool {
+        self.observe(now);
+        if self.items.len() < self.capacity {
+            return true;
+        }
+        self.refuse(now);
+        false
+    }
+
+    fn refuse(&mut self, now: Cycle) {
+        self.counters.refused_pushes += 1;
+        if self.last_refused != Some(now) {
+            self.counters.full_cycles += 1;
+            self.last_refused = Some(now);
+        }
+    }
+
     /// Push `item` at `now`; it becomes visible at `now + latency`. On a full
     /// FIFO the item is handed back and the cycle counts as a full cycle.
     pub fn push(&mut self, now: Cycle, item: T) -> Result<(), T> {
         self.observe(now);
         if self.items.len() >= self.capacity {
-            self.counters.refused_pushes += 1;
-            if self.last_refused != Some(now) {
-                self.counters.full_cycles += 1;
-                self.last_refused = Some(now);
-            }
+            self.refuse(now);
             return Err(item);
         }
         self.items.push_back((now + self.latency, item));
@@ -312,6 +336,20 @@ mod tests {
         assert_eq!(c, FifoCounters { pushes: 2, pops: 1, full_cycles: 2, refused_pushes: 4, peak_len: 1 });
         f.reset_counters();
         assert_eq!(f.counters(), FifoCounters { peak_len: 1, ..FifoCounters::default() });
+    }
+
+    #[test]
+    fn a_refused_offer_counts_like_a_refused_push() {
+        let mut f = Fifo::new(1, 1);
+        assert!(f.offer(N));
+        f.push(N, 0).unwrap();
+        assert!(!f.offer(N));
+        assert!(!f.offer(N));
+        assert!(f.push(N + 1, 1).is_err());
+        let c = f.counters();
+        assert_eq!((c.refused_pushes, c.full_cycles, c.pushes), (3, 2, 1));
+        assert_eq!(f.pop(N + 1), Some(0));
+        assert!(f.offer(N + 1));
     }
 
     /// Consumer ticked before producer in each cycle (downstream first).

@@ -20,22 +20,12 @@
 
 use crate::mem::dram::DramCounters;
 use crate::stats::StatDef;
+pub use crate::units::UnitCycles;
 use crate::units::fetch::SourceCacheCounters;
 use crate::units::tile_cache::TileCacheCounters;
 
 /// The units whose cycles are accounted, in report order.
 pub const UNITS: [&str; 7] = ["fetch", "transform", "kernel_setup", "raster", "composite", "hole_fill", "abuffer"];
-
-/// Busy, stalled and idle cycles of one unit (cycles).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct UnitCycles {
-    /// Cycles the unit moved work.
-    pub busy: u64,
-    /// Cycles it had work but waited.
-    pub stall: u64,
-    /// Cycles it had nothing to do.
-    pub idle: u64,
-}
 
 /// Largest rectangle side tracked in [`FrameStats::rects`].
 pub const RECT_HIST_MAX: usize = 8;

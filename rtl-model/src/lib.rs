@@ -19,6 +19,7 @@ pub mod engine;
 pub mod fifo;
 pub mod fixed;
 pub mod frame_stats;
+pub mod hw_reference;
 pub mod mem;
 pub mod sample_image;
 pub mod schedule;

@@ -107,7 +107,7 @@ pub enum Access {
 
 /// A memory request, as handed back when refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Request {
+pub struct Request<T = u64> {
     /// Who asked.
     pub client: Client,
     /// Read or write.
@@ -115,7 +115,7 @@ pub struct Request {
     /// Bytes asked for (before rounding to bursts).
     pub bytes: u64,
     /// The client's identifier, returned on completion.
-    pub tag: u64,
+    pub tag: T,
 }
 
 /// The DRAM knobs.
@@ -206,17 +206,17 @@ pub struct DramCounters {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct InFlight {
+struct InFlight<T> {
     done: Cycle,
-    tag: u64,
+    tag: T,
     client: Client,
 }
 
 /// The DRAM model. See the module documentation for the timing rules.
 #[derive(Clone, Debug)]
-pub struct Dram {
+pub struct Dram<T = u64> {
     cfg: DramConfig,
-    in_flight: VecDeque<InFlight>,
+    in_flight: VecDeque<InFlight<T>>,
     /// First free byte slot of the bus: cycle c carries the slots
     /// `[c * peak, (c + 1) * peak)`.
     bus_free_slot: u64,
@@ -226,12 +226,12 @@ pub struct Dram {
     counters: DramCounters,
 }
 
-impl Dram {
+impl<T: Copy> Dram<T> {
     /// A DRAM with knobs `cfg`, idle.
     ///
     /// # Panics
     /// If `cfg` does not validate.
-    pub fn new(cfg: DramConfig) -> Dram {
+    pub fn new(cfg: DramConfig) -> Dram<T> {
         cfg.validate().unwrap_or_else(|e| panic!("invalid DRAM configuration: {e}"));
         Dram {
             cfg,
@@ -296,7 +296,14 @@ impl Dram {
     /// # Panics
     /// If `bytes` is 0.
     #[inline]
-    pub fn request(&mut self, now: Cycle, client: Client, access: Access, bytes: u64, tag: u64) -> Result<(), Request> {
+    pub fn request(
+        &mut self,
+        now: Cycle,
+        client: Client,
+        access: Access,
+        bytes: u64,
+        tag: T,
+    ) -> Result<(), Request<T>> {
         assert!(bytes > 0, "DRAM request of 0 bytes");
         if !self.will_accept(now) {
             if self.last_refused != Some(now) {
@@ -334,7 +341,7 @@ impl Dram {
     /// The oldest outstanding request, if it has completed by `now`:
     /// `(tag, client)`. Frees its outstanding slot.
     #[inline]
-    pub fn completed(&mut self, now: Cycle) -> Option<(u64, Client)> {
+    pub fn completed(&mut self, now: Cycle) -> Option<(T, Client)> {
         self.check_now(now);
         let head = self.in_flight.front()?;
         if head.done > now {

@@ -22,9 +22,22 @@
 //! 4. A sample is streamed only when its block is on chip; samples with no
 //!    surface have no fragment and cost no cycle.
 //!
+//! 5. Control ([`FetchStage`]): it streams the schedule's intervals in
+//!    order, up to `transform_throughput` samples per cycle. It is *busy* in
+//!    a cycle it pushed a sample, else *stalled* on `dram` (the next
+//!    sample's block is not on chip) or `fifo_full` (the transform pipeline
+//!    refused the sample), else *idle*. `source_cache.wait_cycles` counts
+//!    every cycle in which it met an absent block, busy or not, including
+//!    the cycles the engine skips while it waits.
+//!
 //! Not modelled: the expander's internal buffering (a fragment expands to
 //! its covered samples with no delay), compression of the stream.
 
+use super::transform::{InFlightSample, TransformStage};
+use super::{Activity, StallReason, Tick, UnitCycles};
+use crate::clock::Cycle;
+use crate::hw_reference::HwReference;
+use crate::mem::{Access, Client, MemPort, Req, Tag};
 use crate::schedule::FetchInterval;
 use crate::traversal::Major;
 
@@ -154,7 +167,8 @@ impl SourceCache {
     }
 
     /// Block `b` has arrived at `now`: make room (rule 2) and keep it.
-    pub fn arrived(&mut self, b: u32, now: u64) {
+    pub fn arrived(&mut self, b: u32, now: Cycle) {
+        let now = now.get();
         let need = self.bytes[b as usize];
         while self.used + need > self.capacity && !self.resident.is_empty() {
             // Least recently used, ties to the lowest block number.
@@ -183,13 +197,152 @@ impl SourceCache {
 
     /// Read sample data from block `b` at `now`: true if on chip.
     #[inline]
-    pub fn touch(&mut self, b: u32, now: u64) -> bool {
+    pub fn touch(&mut self, b: u32, now: Cycle) -> bool {
         if self.state[b as usize] == BlockState::Resident {
-            self.resident_use[self.pos[b as usize] as usize] = now;
+            self.resident_use[self.pos[b as usize] as usize] = now.get();
             true
         } else {
             false
         }
+    }
+}
+
+/// The fetch unit's ports for one cycle.
+pub struct FetchPorts<'a> {
+    /// The transform pipeline it feeds.
+    pub transform: &'a mut TransformStage,
+    /// The memory port (block reads).
+    pub port: &'a mut MemPort,
+}
+
+/// The fetch unit's control for one warp (rule 5).
+pub struct FetchStage<'s> {
+    plan: &'s [FetchInterval],
+    reference: &'s HwReference,
+    /// The source cache.
+    pub cache: SourceCache,
+    lanes: usize,
+    /// Interval being streamed, and the position in it.
+    interval: usize,
+    pos: u32,
+    /// Intervals whose blocks are queued (rule 3).
+    prefetched: usize,
+    /// This cycle met an absent block.
+    block_wait: bool,
+    activity: Activity,
+}
+
+impl<'s> FetchStage<'s> {
+    /// Stream `plan` from `reference` through `cache`, `lanes` samples per
+    /// cycle.
+    pub fn new(plan: &'s [FetchInterval], reference: &'s HwReference, cache: SourceCache, lanes: u32) -> Self {
+        FetchStage {
+            plan,
+            reference,
+            cache,
+            lanes: lanes as usize,
+            interval: 0,
+            pos: 0,
+            prefetched: 0,
+            block_wait: false,
+            activity: Activity::default(),
+        }
+    }
+
+    /// The interval being streamed (= intervals fully pushed).
+    #[inline]
+    pub fn interval(&self) -> usize {
+        self.interval
+    }
+
+    /// Every interval has been pushed.
+    #[inline]
+    pub fn is_done(&self) -> bool {
+        self.interval >= self.plan.len()
+    }
+
+    fn queue_block(cache: &mut SourceCache, port: &mut MemPort, b: u32) {
+        if cache.request(b) {
+            port.prefetch(Req {
+                client: Client::ReferenceFetch,
+                access: Access::Read,
+                bytes: cache.bytes(b),
+                tag: Tag::Block(b),
+            });
+        }
+    }
+
+    /// One cycle (rules 3–5).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut FetchPorts<'_>) -> Tick {
+        let r = self.reference;
+        let mut pushed = 0;
+        let mut stalled = None;
+        self.block_wait = false;
+        while self.interval < self.plan.len() {
+            while self.prefetched < (self.interval + 2).min(self.plan.len()) {
+                let iv = self.plan[self.prefetched];
+                let (cache, port) = (&mut self.cache, &mut *io.port);
+                let mut list = Vec::new();
+                cache.blocks_of(&iv, |b| list.push(b));
+                for b in list {
+                    Self::queue_block(cache, port, b);
+                }
+                self.prefetched += 1;
+            }
+            let iv = self.plan[self.interval];
+            if self.pos == iv.len() {
+                self.interval += 1;
+                self.pos = 0;
+                continue;
+            }
+            if pushed == self.lanes {
+                break;
+            }
+            let (x, y) = iv.at(self.pos);
+            let i = r.grid.index(x, y);
+            if !r.valid_at(i) {
+                self.pos += 1;
+                continue;
+            }
+            let b = self.cache.block_of(x, y);
+            if !self.cache.touch(b, now) {
+                if self.cache.state(b) == BlockState::Absent {
+                    Self::queue_block(&mut self.cache, io.port, b);
+                }
+                self.block_wait = true;
+                stalled = Some(StallReason::Dram);
+                break;
+            }
+            let s = InFlightSample { grid_index: i as u32, interval: self.interval as u32 };
+            if io.transform.accept(now, s).is_err() {
+                stalled = Some(StallReason::FifoFull);
+                break;
+            }
+            pushed += 1;
+            self.pos += 1;
+        }
+        let t = match (pushed, stalled) {
+            (1.., _) => Tick::BUSY,
+            (0, Some(r)) => Tick::stall(r),
+            (0, None) => Tick::IDLE,
+        };
+        self.activity.record(t)
+    }
+
+    /// Charge `span` cycles to the state of the last tick; the wait counter
+    /// too if the fetch unit met an absent block (rule 5).
+    #[inline]
+    pub fn charge(&mut self, span: u64) {
+        self.activity.charge(span);
+        if self.block_wait {
+            self.cache.counters.wait_cycles += span;
+        }
+    }
+
+    /// Cycles charged.
+    pub fn cycles(&self) -> UnitCycles {
+        self.activity.cycles
     }
 }
 
@@ -207,12 +360,12 @@ mod tests {
         c.blocks_of(&iv, |b| seen.push(b));
         assert_eq!(seen, vec![2, 1, 0]);
         assert!(c.request(0) && !c.request(0));
-        c.arrived(0, 1);
+        c.arrived(0, Cycle(1));
         assert!(c.request(1));
-        c.arrived(1, 2);
-        assert!(c.touch(0, 3));
+        c.arrived(1, Cycle(2));
+        assert!(c.touch(0, Cycle(3)));
         assert!(c.request(2));
-        c.arrived(2, 4); // 100 + 101 + 102 > 250: block 1 (LRU) goes
+        c.arrived(2, Cycle(4)); // 100 + 101 + 102 > 250: block 1 (LRU) goes
         assert_eq!((c.state(1), c.state(0), c.counters.evictions), (BlockState::Absent, BlockState::Resident, 1));
     }
 }

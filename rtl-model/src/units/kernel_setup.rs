@@ -32,11 +32,28 @@
 //!    epipole); if it is a deeper, warped surface failing rule 1, its
 //!    colour goes to the hole-fill plane instead of the sample's own.
 //!
+//! 6. Control ([`KernelSetupStage`]): each cycle it first absorbs up to
+//!    `transform_throughput` finished transforms into the line buffer, then
+//!    emits up to as many kernels along the schedule's lines. A line's
+//!    kernels start once the fetch interval of the next line of its sheet
+//!    has left the transform pipeline (`Schedule::need`); until then the
+//!    unit stalls on `upstream` (the line buffer). A full kernel FIFO
+//!    stalls it on `fifo_full`. Samples without a surface cost nothing; a
+//!    culled sample takes an emission slot but yields no kernel. It is
+//!    *busy* in a cycle it absorbed or emitted anything.
+//!
 //! Not modelled: line-buffer capacity stalls (the buffer is sized for the
 //! longest line of the reference).
 
-use super::transform::{TransformUnit, Warped};
+use super::line_buffer::LineBuffer;
+use super::tile_manager::TileManager;
+use super::transform::{TransformStage, TransformUnit, Warped};
+use super::{Activity, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
+use crate::clock::Cycle;
+use crate::fifo::Fifo;
+use crate::hw_reference::HwReference;
+use crate::traversal::{Line, Major};
 use glam::DVec2;
 
 /// Why a 2x2 group's corner is not shared.
@@ -142,6 +159,228 @@ pub fn backward_step(e: &Epipole, x: u32, y: u32) -> Option<(i32, i32)> {
     } else {
         (sx, sy)
     })
+}
+
+/// A kernel travelling from kernel setup to the rasterizer.
+#[derive(Clone, Copy, Debug)]
+pub struct Kernel {
+    /// The schedule line it belongs to.
+    pub line: u32,
+    /// The reference sample.
+    pub sample: (u32, u32),
+    /// Its warped position (derived samples).
+    pub pos: DVec2,
+    /// Its derived 1/Z.
+    pub inv_z: f64,
+    /// Rule 4's box `(x0, x1, y0, y1)`.
+    pub corners_box: (f64, f64, f64, f64),
+    /// The sample's colour.
+    pub colour: [f32; 3],
+    /// Rule 5's hole-fill colour.
+    pub fill_colour: [f32; 3],
+    /// The reference sample's 1/Z and slopes (for the derived slopes and
+    /// the better mask, computed on request).
+    pub src_inv_z: f64,
+    /// The reference sample's 1/Z slopes.
+    pub src_slopes: [f32; 2],
+}
+
+/// Kernel setup's ports for one cycle.
+pub struct KernelSetupPorts<'a> {
+    /// The transform pipeline it absorbs from.
+    pub transform: &'a mut TransformStage,
+    /// The fetch unit's interval cursor (intervals fully pushed).
+    pub fetch_interval: usize,
+    /// The kernel FIFO to the rasterizer.
+    pub out: &'a mut Fifo<Kernel>,
+    /// The tile manager (kernels in flight per line).
+    pub tiles: &'a mut TileManager,
+}
+
+/// Kernel setup's control for one warp (rule 6).
+pub struct KernelSetupStage<'s> {
+    lines: &'s [Line],
+    need: &'s [Option<usize>],
+    reference: &'s HwReference,
+    tu: &'s TransformUnit,
+    buffer: &'s mut LineBuffer,
+    threshold: f64,
+    lanes: usize,
+    line: usize,
+    pos: u32,
+    kernels: u64,
+    culled: u64,
+    activity: Activity,
+}
+
+impl<'s> KernelSetupStage<'s> {
+    /// Kernel setup over the schedule's `lines` (and their `need`) of a warp
+    /// of `reference` by `tu`, `lanes` kernels per cycle.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        lines: &'s [Line],
+        need: &'s [Option<usize>],
+        reference: &'s HwReference,
+        tu: &'s TransformUnit,
+        buffer: &'s mut LineBuffer,
+        threshold: f64,
+        lanes: u32,
+    ) -> Self {
+        buffer.begin_warp(reference.samples.width, reference.samples.height);
+        KernelSetupStage {
+            lines,
+            need,
+            reference,
+            tu,
+            buffer,
+            threshold,
+            lanes: lanes as usize,
+            line: 0,
+            pos: 0,
+            kernels: 0,
+            culled: 0,
+            activity: Activity::default(),
+        }
+    }
+
+    /// Lines whose kernels have all been emitted.
+    #[inline]
+    pub fn lines_emitted(&self) -> usize {
+        self.line
+    }
+
+    /// Every line's kernels have been emitted.
+    #[inline]
+    pub fn is_done(&self) -> bool {
+        self.line >= self.lines.len()
+    }
+
+    /// One cycle (rule 6).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut KernelSetupPorts<'_>) -> Tick {
+        let mut absorbed = 0;
+        while absorbed < self.lanes && io.transform.take(now).is_some() {
+            absorbed += 1;
+        }
+        let done_intervals = io.transform.oldest_interval().unwrap_or(io.fetch_interval);
+        let r = self.reference;
+        let mut emitted = 0;
+        let mut stalled = None;
+        while emitted < self.lanes && self.line < self.lines.len() {
+            let Some(need) = self.need[self.line] else {
+                // Dead line: no kernels.
+                self.line += 1;
+                self.pos = 0;
+                continue;
+            };
+            if need >= done_intervals {
+                stalled = Some(StallReason::Upstream);
+                break;
+            }
+            let line = self.lines[self.line];
+            if self.pos == line.len() {
+                self.line += 1;
+                self.pos = 0;
+                continue;
+            }
+            let (x, y) = line.at(if line.step > 0 { line.lo + self.pos } else { line.hi - self.pos });
+            let i = r.grid.index(x, y);
+            if !r.valid_at(i) {
+                self.pos += 1;
+                continue;
+            }
+            if !io.out.offer(now) {
+                stalled = Some(StallReason::FifoFull);
+                break;
+            }
+            self.pos += 1;
+            emitted += 1;
+            assert!(
+                io.transform.has_transformed(i),
+                "kernel setup read ({x}, {y}) before the fetch plan transformed it"
+            );
+            if let Some(k) = self.kernel(io.transform, line.major, x, y) {
+                self.kernels += 1;
+                io.tiles.kernel_issued(self.line);
+                io.out.push(now, k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
+            } else {
+                self.culled += 1;
+            }
+        }
+        let t = if emitted > 0 || absorbed > 0 { Tick::BUSY } else { stalled.map_or(Tick::IDLE, Tick::stall) };
+        self.activity.record(t)
+    }
+
+    /// The kernel of valid sample `(x, y)` on the current line (`None`:
+    /// culled), rules 1–5.
+    #[inline]
+    fn kernel(&mut self, transform: &TransformStage, major: Major, x: u32, y: u32) -> Option<Kernel> {
+        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
+        let t = self.buffer.warped(tu, r, major, x, y)?;
+        let (xi, yi) = (x as i64, y as i64);
+        let done = |j: usize| transform.has_transformed(j);
+        let buf = &mut *self.buffer;
+        let groups = [
+            buf.group(tu, r, major, (xi - 1, yi - 1), threshold, done),
+            buf.group(tu, r, major, (xi, yi - 1), threshold, done),
+            buf.group(tu, r, major, (xi - 1, yi), threshold, done),
+            buf.group(tu, r, major, (xi, yi), threshold, done),
+        ];
+        let rec = *r.rec(major, x, y);
+        let (c, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
+        Some(Kernel {
+            line: self.line as u32,
+            sample: (x, y),
+            pos: t.pos,
+            inv_z: t.inv_z,
+            corners_box: bounding_box(&c),
+            colour: rec.colour,
+            fill_colour: self.fill_colour(major, x, y, &t, rec.colour, rec.z),
+            src_inv_z: rec.inv_z,
+            src_slopes: rec.slopes,
+        })
+    }
+
+    /// Rule 5: the hole-fill colour of sample `(x, y)` (warped `t`, colour
+    /// `colour`, depth `z`): its backward neighbour's colour on a forward
+    /// edge, else its own.
+    #[inline]
+    fn fill_colour(&mut self, major: Major, x: u32, y: u32, t: &Warped, colour: [f32; 3], z: f32) -> [f32; 3] {
+        let (r, tu) = (self.reference, self.tu);
+        let img = &r.samples;
+        if let Some((dx, dy)) = backward_step(&tu.setup.epipole_reference, x, y) {
+            let (nx, ny) = (x as i64 + dx as i64, y as i64 + dy as i64);
+            if nx >= 0 && ny >= 0 && nx < img.width as i64 && ny < img.height as i64 {
+                let k = r.grid.index(nx as u32, ny as u32);
+                if r.valid_at(k)
+                    && let Some(tn) = self.buffer.warped(tu, r, major, nx as u32, ny as u32)
+                {
+                    let offset = DVec2::new(dx as f64, dy as f64).length();
+                    let nk = r.rec(major, nx as u32, ny as u32);
+                    if nk.z > z && !one_surface(t, &tn, offset, self.threshold) {
+                        return nk.colour;
+                    }
+                }
+            }
+        }
+        colour
+    }
+
+    /// Charge `span` cycles to the state of the last tick.
+    #[inline]
+    pub fn charge(&mut self, span: u64) {
+        self.activity.charge(span);
+    }
+
+    /// Cycles charged.
+    pub fn cycles(&self) -> UnitCycles {
+        self.activity.cycles
+    }
+
+    /// Kernels set up and samples culled in this warp.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.kernels, self.culled)
+    }
 }
 
 #[cfg(test)]

@@ -32,6 +32,8 @@
 //! resident tile costs nothing beyond the unit's cycle), write-buffer
 //! capacity beyond the engine's queue.
 
+use crate::clock::Cycle;
+
 /// State of one tile within the current warp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TileState {
@@ -138,12 +140,12 @@ impl TileCache {
     /// [`TileCache::access`] when tile `t` is resident (a hit, counted if
     /// `counted`): true. Otherwise false, and nothing changes.
     #[inline]
-    pub fn hit(&mut self, t: u32, now: u64, counted: bool) -> bool {
+    pub fn hit(&mut self, t: u32, now: Cycle, counted: bool) -> bool {
         let ti = t as usize;
         if self.state[ti] != TileState::Resident {
             return false;
         }
-        self.resident_use[self.pos[ti] as usize] = now;
+        self.resident_use[self.pos[ti] as usize] = now.get();
         if counted {
             self.counters.accesses += 1;
             self.counters.hits += 1;
@@ -156,12 +158,12 @@ impl TileCache {
     /// spilled tile is returned for the caller to write out (rule 4);
     /// `pinned` tiles are never spilled.
     #[inline]
-    pub fn access(&mut self, t: u32, now: u64, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
+    pub fn access(&mut self, t: u32, now: Cycle, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
         let ti = t as usize;
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.resident_use[self.pos[ti] as usize] = now;
+                self.resident_use[self.pos[ti] as usize] = now.get();
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -200,7 +202,8 @@ impl TileCache {
 
     /// A load of tile `t` has arrived.
     #[inline]
-    pub fn loaded(&mut self, t: u32, now: u64) {
+    pub fn loaded(&mut self, t: u32, now: Cycle) {
+        let now = now.get();
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
         self.pos[t as usize] = self.resident.len() as u32;
@@ -254,20 +257,20 @@ mod tests {
     #[test]
     fn compulsory_then_hits_then_capacity_after_a_spill() {
         let mut c = TileCache::new(2, 4);
-        assert_eq!(c.access(0, 0, true, &[]), (Lookup::Compulsory, None));
-        assert_eq!(c.access(0, 1, true, &[]), (Lookup::Wait, None));
-        c.loaded(0, 1);
-        assert_eq!(c.access(0, 2, true, &[]).0, Lookup::Hit);
-        assert_eq!(c.access(1, 3, true, &[]).0, Lookup::Compulsory);
-        c.loaded(1, 3);
+        assert_eq!(c.access(0, Cycle(0), true, &[]), (Lookup::Compulsory, None));
+        assert_eq!(c.access(0, Cycle(1), true, &[]), (Lookup::Wait, None));
+        c.loaded(0, Cycle(1));
+        assert_eq!(c.access(0, Cycle(2), true, &[]).0, Lookup::Hit);
+        assert_eq!(c.access(1, Cycle(3), true, &[]).0, Lookup::Compulsory);
+        c.loaded(1, Cycle(3));
         // Full: tile 0 is least recently used and is spilled for tile 2.
-        assert_eq!(c.access(2, 4, true, &[]), (Lookup::Compulsory, Some(0)));
-        c.loaded(2, 5);
-        assert_eq!(c.access(0, 6, true, &[1, 2]), (Lookup::Full, None));
-        assert_eq!(c.access(0, 7, true, &[]), (Lookup::Capacity, Some(1)));
+        assert_eq!(c.access(2, Cycle(4), true, &[]), (Lookup::Compulsory, Some(0)));
+        c.loaded(2, Cycle(5));
+        assert_eq!(c.access(0, Cycle(6), true, &[1, 2]), (Lookup::Full, None));
+        assert_eq!(c.access(0, Cycle(7), true, &[]), (Lookup::Capacity, Some(1)));
         let k = &c.counters;
         assert_eq!((k.accesses, k.hits, k.misses_compulsory, k.misses_capacity, k.spills), (5, 1, 3, 1, 2));
-        c.loaded(0, 8);
+        c.loaded(0, Cycle(8));
         c.release(0);
         c.release(2);
         assert_eq!(c.occupancy(), 0);

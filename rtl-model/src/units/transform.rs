@@ -31,10 +31,21 @@
 //!    `n` the world normal from `(fx·∂x, fy·∂y, c0)`, `v` the vectors from
 //!    the surface point to the reference centres.
 //!
+//! Control ([`TransformStage`]): the pipeline is a [`Fifo`] of
+//! `transform_throughput · (transform_latency + 1)` slots and latency
+//! `transform_latency`. The fetch unit offers samples ([`TransformStage::accept`]);
+//! kernel setup takes them out when visible ([`TransformStage::take`]).
+//! The stage is *busy* in a cycle in which it accepted a sample, *stalled*
+//! (`fifo_full`) in one in which it refused one and accepted none, *idle*
+//! otherwise.
+//!
 //! Not modelled: fixed-point datapaths (FP64 arithmetic, FP32 storage, as
 //! in the golden model, so that the two agree bit for bit).
 
+use super::{Activity, StallReason, Tick, UnitCycles, UnitState};
 use crate::camera::{Camera, WarpSetup};
+use crate::clock::Cycle;
+use crate::fifo::Fifo;
 use glam::{DMat3, DVec2, DVec3};
 
 /// A warped reference sample.
@@ -172,5 +183,133 @@ impl TransformUnit {
             }
         }
         mask
+    }
+}
+
+/// A sample in the transform pipeline: its grid index (the reference's
+/// host layout) and the fetch interval it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InFlightSample {
+    /// Grid index of the sample (`HwReference`'s layout).
+    pub grid_index: u32,
+    /// Index of its fetch interval in the schedule.
+    pub interval: u32,
+}
+
+/// The transform unit's pipeline control for one warp (module doc).
+pub struct TransformStage {
+    pipe: Fifo<InFlightSample>,
+    /// Per sample (grid index): accepted in this warp.
+    transformed: Vec<u64>,
+    accepted: u32,
+    refused: bool,
+    samples: u64,
+    activity: Activity,
+}
+
+impl TransformStage {
+    /// A pipeline of `throughput` lanes and `latency` cycles over a
+    /// reference whose grid has `grid_len` samples.
+    pub fn new(throughput: u32, latency: u32, grid_len: usize) -> TransformStage {
+        let slots = throughput as usize * (latency as usize + 1);
+        TransformStage {
+            pipe: Fifo::new(slots, latency as u64),
+            transformed: vec![0; grid_len.div_ceil(64)],
+            accepted: 0,
+            refused: false,
+            samples: 0,
+            activity: Activity::default(),
+        }
+    }
+
+    /// Offer a sample at `now`: accepted unless the pipeline is full (the
+    /// sample is then handed back and the fetch unit stalls).
+    #[inline]
+    pub fn accept(&mut self, now: Cycle, s: InFlightSample) -> Result<(), InFlightSample> {
+        match self.pipe.push(now, s) {
+            Ok(()) => {
+                let i = s.grid_index as usize;
+                self.transformed[i >> 6] |= 1 << (i & 63);
+                self.accepted += 1;
+                self.samples += 1;
+                Ok(())
+            }
+            Err(s) => {
+                self.refused = true;
+                Err(s)
+            }
+        }
+    }
+
+    /// Take the oldest sample whose transform is done at `now`.
+    #[inline]
+    pub fn take(&mut self, now: Cycle) -> Option<InFlightSample> {
+        self.pipe.pop(now)
+    }
+
+    /// The interval of the oldest sample still in the pipeline.
+    #[inline]
+    pub fn oldest_interval(&self) -> Option<usize> {
+        self.pipe.oldest().map(|s| s.interval as usize)
+    }
+
+    /// True if sample `grid_index` was accepted in this warp.
+    #[inline(always)]
+    pub fn has_transformed(&self, grid_index: usize) -> bool {
+        self.transformed[grid_index >> 6] >> (grid_index & 63) & 1 != 0
+    }
+
+    /// The stage's state in cycle `now`, after the fetch unit's offers of
+    /// that cycle.
+    #[inline]
+    pub fn tick(&mut self, _now: Cycle) -> Tick {
+        let t = if self.accepted > 0 {
+            Tick::BUSY
+        } else if self.refused {
+            Tick::stall(StallReason::FifoFull)
+        } else {
+            Tick::IDLE
+        };
+        self.accepted = 0;
+        self.refused = false;
+        self.activity.record(t)
+    }
+
+    /// Charge `span` cycles to the state of the last tick.
+    #[inline]
+    pub fn charge(&mut self, span: u64) {
+        self.activity.charge(span);
+    }
+
+    /// Cycles charged.
+    pub fn cycles(&self) -> UnitCycles {
+        self.activity.cycles
+    }
+
+    /// State of the last tick.
+    pub fn state(&self) -> UnitState {
+        self.activity.state
+    }
+
+    /// Samples accepted in this warp (samples).
+    pub fn samples(&self) -> u64 {
+        self.samples
+    }
+
+    /// No sample in the pipeline.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.pipe.is_empty()
+    }
+
+    /// Samples in the pipeline.
+    pub fn len(&self) -> usize {
+        self.pipe.len()
+    }
+
+    /// When the oldest sample becomes visible.
+    #[inline]
+    pub fn next_visible(&self) -> Option<Cycle> {
+        self.pipe.next_visible()
     }
 }
