@@ -46,6 +46,14 @@ fn snapshot(trace: &str, config_name: &str, cfg: &EngineConfig) -> String {
         }
         let hw: Vec<&HwReference> = t.derived[k].references.iter().map(|r| &refs[r]).collect();
         let out = engine.run_frame(&t.frame_commands(k), &hw);
+        for (name, u) in postwarp_rtl::engine::UNITS.iter().zip(&out.stats.units) {
+            assert_eq!(
+                u.total(),
+                out.stats.cycles,
+                "{trace} frame {k} {config_name}: {name} cycles do not tile the frame"
+            );
+            assert_eq!(u.stall_by_reason.iter().sum::<u64>(), u.stall, "{trace} frame {k}: {name} stall reasons");
+        }
         let _ = writeln!(s, "frame {k}");
         for (name, value) in out.stats.flat() {
             let _ = writeln!(s, "{name} = {value}");

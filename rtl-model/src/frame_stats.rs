@@ -20,6 +20,7 @@
 
 use crate::mem::dram::DramCounters;
 use crate::stats::StatDef;
+use crate::units::StallReason;
 pub use crate::units::UnitCycles;
 use crate::units::fetch::SourceCacheCounters;
 use crate::units::tile_cache::TileCacheCounters;
@@ -122,6 +123,11 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("units.<unit>.busy", "cycles", "cycles the unit moved work"),
     StatDef::counter("units.<unit>.stall", "cycles", "cycles the unit had work but waited"),
     StatDef::counter("units.<unit>.idle", "cycles", "cycles the unit had nothing to do"),
+    StatDef::counter(
+        "units.<unit>.stall.<reason>",
+        "cycles",
+        "stall cycles by reason: dram, tile, fifo_full, upstream (docs/stats.md)",
+    ),
 ];
 
 /// The declaration of a name [`FrameStats::flat`] emits: the family whose
@@ -209,6 +215,9 @@ impl FrameStats {
             put(format!("units.{name}.busy"), u.busy);
             put(format!("units.{name}.stall"), u.stall);
             put(format!("units.{name}.idle"), u.idle);
+            for r in StallReason::ALL {
+                put(format!("units.{name}.stall.{}", r.name()), u.stall_by_reason[r.index()]);
+            }
         }
         v
     }
