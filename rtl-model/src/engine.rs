@@ -72,7 +72,7 @@ use crate::units::raster::{RasterPorts, RasterStage, Stamped};
 use crate::units::resolve::resolve;
 use crate::units::tile_manager::TileManager;
 use crate::units::transform::{TransformStage, TransformUnit};
-use crate::units::{UnitCycles as Cycles, UnitState, display};
+use crate::units::{Activity, UnitCycles as Cycles, UnitState, display};
 use bitvec::vec::BitVec;
 
 pub use crate::frame_stats::{FrameStats, RECT_HIST_MAX, UNITS, UnitCycles};
@@ -244,7 +244,7 @@ impl Machine<'_> {
     fn run_warp(&mut self, f: &mut DestFrame, w: &WarpInput<'_>, buffer: &mut LineBuffer) {
         let plan = WarpPlan::new(self.cfg, w, (f.width, f.height));
         self.cache.begin_warp(w.number);
-        let mut p = Pipeline::new(self.cfg, w, &plan, buffer, self.now);
+        let mut p = Pipeline::new(self.cfg, w, &plan, buffer, self.now, false);
         loop {
             let now = self.now;
             // 1–2. Memory: completions, then one request.
@@ -275,8 +275,7 @@ impl Machine<'_> {
                 break;
             }
             let next = if moved { None } else { p.next_event(now, self.dram.next_completion()) };
-            let span = self.advance(moved, next);
-            p.charge(span);
+            self.advance(moved, next);
         }
         p.finish(&plan, self);
     }
@@ -302,9 +301,7 @@ impl WarpPlan {
         };
         let epipole: Epipole = w.tu.setup.epipole_derived;
         let fill = HoleFillUnit::new(dw, dh, &epipole, params);
-        let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, |l, x, y| {
-            HoleFillUnit::tap_positions(l, x, y, &params)
-        });
+        let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &HoleFillUnit::tap_offsets(&params));
         WarpPlan { sched, fill, releases }
     }
 }
@@ -330,6 +327,7 @@ impl<'s> Pipeline<'s> {
         plan: &'s WarpPlan,
         buffer: &'s mut LineBuffer,
         now: Cycle,
+        record: bool,
     ) -> Pipeline<'s> {
         let (r, tu, sched) = (w.r, w.tu, &plan.sched);
         let side = cfg.tile_size / cfg.supersample;
@@ -343,17 +341,18 @@ impl<'s> Pipeline<'s> {
         );
         let (thr, rate) = (cfg.transform_throughput, cfg.rects_per_cycle);
         let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);
+        let a = || Activity::starting(now, record);
         Pipeline {
-            fetch: FetchStage::new(&sched.fetch, r, cache, thr),
-            transform: TransformStage::new(thr, cfg.transform_latency, r.grid.len()),
-            kernel: KernelSetupStage::new(&sched.lines, &sched.need, r, tu, buffer, cfg.threshold, thr),
+            fetch: FetchStage::new(&sched.fetch, r, cache, thr, a()),
+            transform: TransformStage::new(thr, cfg.transform_latency, r.grid.len(), a()),
+            kernel: KernelSetupStage::new(&sched.lines, &sched.need, r, tu, buffer, cfg.threshold, thr, a()),
             kernels: Fifo::new(2 * rate as usize, 1),
-            raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate),
+            raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate, a()),
             stamps: Fifo::new(2 * rate as usize, 1),
-            composite: CompositeStage::new(tu, cfg.slope_tol, cfg.rel_tol, rate),
+            composite: CompositeStage::new(tu, cfg.slope_tol, cfg.rel_tol, rate, a()),
             tiles: TileManager::new(sched.lines.len(), &sched.retire),
-            fill: HoleFillStage::new(plan.fill.clone(), cfg.hole_fill_per_cycle),
-            packer: PackerStage::new(&plan.releases, abuffer_params(cfg), now),
+            fill: HoleFillStage::new(plan.fill.clone(), cfg.hole_fill_per_cycle, a()),
+            packer: PackerStage::new(&plan.releases, abuffer_params(cfg), now, a()),
         }
     }
 
@@ -382,19 +381,18 @@ impl<'s> Pipeline<'s> {
         .min()
     }
 
-    /// Charge every unit with `span` cycles of its last state.
-    fn charge(&mut self, span: u64) {
-        self.fetch.charge(span);
-        self.transform.charge(span);
-        self.kernel.charge(span);
-        self.raster.charge(span);
-        self.composite.charge(span);
-        self.fill.charge(span);
-        self.packer.charge(span);
-    }
-
     /// Add the warp's counters to the frame's.
-    fn finish(self, plan: &WarpPlan, m: &mut Machine<'_>) {
+    fn finish(mut self, plan: &WarpPlan, m: &mut Machine<'_>) {
+        let now = m.now;
+        let closed = [
+            self.fetch.close(now),
+            self.transform.close(now),
+            self.kernel.close(now),
+            self.raster.close(now),
+            self.composite.close(now),
+            self.fill.close(now),
+            self.packer.close(now),
+        ];
         let s = &mut m.stats;
         let live = plan.sched.live.iter().filter(|&&l| l).count() as u64;
         s.live_lines += live;
@@ -424,16 +422,7 @@ impl<'s> Pipeline<'s> {
         s.source_cache.block_reads += src.block_reads;
         s.source_cache.evictions += src.evictions;
         s.source_cache.wait_cycles += src.wait_cycles;
-        let cycles = [
-            self.fetch.cycles(),
-            self.transform.cycles(),
-            self.kernel.cycles(),
-            self.raster.cycles(),
-            self.composite.cycles(),
-            self.fill.cycles(),
-            self.packer.cycles(),
-        ];
-        for (u, c) in m.units.iter_mut().zip(&cycles) {
+        for (u, (c, _runs)) in m.units.iter_mut().zip(&closed) {
             u.add(c);
         }
     }

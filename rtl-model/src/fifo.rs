@@ -116,11 +116,13 @@ impl<T> Fifo<T> {
     }
 
     /// Items held, visible or in transit.
+    #[inline]
     pub fn len(&self) -> usize {
         self.items.len()
     }
 
     /// True if no item is held (visible or in transit).
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
@@ -138,6 +140,7 @@ impl<T> Fifo<T> {
     }
 
     /// True if a `push` at `now` would be accepted. Counts nothing.
+    #[inline]
     pub fn can_push(&self, now: Cycle) -> bool {
         self.check_time(now);
         self.items.len() < self.capacity
@@ -146,6 +149,7 @@ impl<T> Fifo<T> {
     /// True if a `push` at `now` would be accepted; false counts as a
     /// refused push (and the cycle as a full cycle), as a refused `push`
     /// does (module doc, the producer rule).
+    #[inline]
     pub fn offer(&mut self, now: Cycle) -> bool {
         self.observe(now);
         if self.items.len() < self.capacity {
@@ -155,6 +159,7 @@ impl<T> Fifo<T> {
         false
     }
 
+    #[inline(never)]
     fn refuse(&mut self, now: Cycle) {
         self.counters.refused_pushes += 1;
         if self.last_refused != Some(now) {
@@ -165,6 +170,7 @@ impl<T> Fifo<T> {
 
     /// Push `item` at `now`; it becomes visible at `now + latency`. On a full
     /// FIFO the item is handed back and the cycle counts as a full cycle.
+    #[inline]
     pub fn push(&mut self, now: Cycle, item: T) -> Result<(), T> {
         self.observe(now);
         if self.items.len() >= self.capacity {
@@ -178,12 +184,14 @@ impl<T> Fifo<T> {
     }
 
     /// True if the oldest item is visible at `now`.
+    #[inline]
     pub fn can_pop(&self, now: Cycle) -> bool {
         self.check_time(now);
         self.items.front().is_some_and(|&(ready, _)| ready <= now)
     }
 
     /// The oldest item, if it is visible at `now`.
+    #[inline]
     pub fn peek(&self, now: Cycle) -> Option<&T> {
         self.check_time(now);
         match self.items.front() {
@@ -193,6 +201,7 @@ impl<T> Fifo<T> {
     }
 
     /// Remove and return the oldest item, if it is visible at `now`.
+    #[inline]
     pub fn pop(&mut self, now: Cycle) -> Option<T> {
         self.observe(now);
         if !self.can_pop(now) {
@@ -203,27 +212,32 @@ impl<T> Fifo<T> {
     }
 
     /// The oldest item, visible or still in transit.
+    #[inline]
     pub fn oldest(&self) -> Option<&T> {
         self.items.front().map(|(_, item)| item)
     }
 
     /// The oldest item, visible or not, for in-place updates by the
     /// consumer that will pop it (e.g. marking a retry).
+    #[inline]
     pub fn oldest_mut(&mut self) -> Option<&mut T> {
         self.items.front_mut().map(|(_, item)| item)
     }
 
     /// The cycle at which the oldest item becomes (or became) visible.
+    #[inline]
     pub fn next_visible(&self) -> Option<Cycle> {
         self.items.front().map(|&(ready, _)| ready)
     }
 
     /// Debug check that `now` is not before the latest push or pop.
+    #[inline(always)]
     fn check_time(&self, now: Cycle) {
         debug_assert!(now >= self.last_now, "Fifo used at cycle {now} after cycle {}", self.last_now);
     }
 
     /// Check `now` and record it as the latest time seen.
+    #[inline(always)]
     fn observe(&mut self, now: Cycle) {
         self.check_time(now);
         self.last_now = now;

@@ -66,33 +66,39 @@ pub struct MemPort {
     writes: VecDeque<Req>,
     prefetch: VecDeque<Req>,
     output: VecDeque<Req>,
+    /// Requests in all four queues.
+    queued: usize,
 }
 
 impl MemPort {
     /// No request is waiting.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.demand.is_empty() && self.writes.is_empty() && self.prefetch.is_empty() && self.output.is_empty()
+        self.queued == 0
     }
 
     /// Queue a demand tile load.
     pub fn demand(&mut self, r: Req) {
         self.demand.push_back(r);
+        self.queued += 1;
     }
 
     /// Queue a write-back or spill.
     pub fn write(&mut self, r: Req) {
         self.writes.push_back(r);
+        self.queued += 1;
     }
 
     /// Queue a source-block read.
     pub fn prefetch(&mut self, r: Req) {
         self.prefetch.push_back(r);
+        self.queued += 1;
     }
 
     /// Queue a display read.
     pub fn output(&mut self, r: Req) {
         self.output.push_back(r);
+        self.queued += 1;
     }
 
     /// Writes waiting (requests).
@@ -103,20 +109,24 @@ impl MemPort {
 
     /// Issue at most one request at `now` (rules 1–2); true if one was
     /// accepted by the DRAM.
-    #[inline]
+    #[inline(always)]
     pub fn issue(&mut self, dram: &mut Dram<Tag>, now: Cycle) -> bool {
-        if self.is_empty() {
-            return false;
-        }
+        self.queued > 0 && self.issue_queued(dram, now)
+    }
+
+    #[inline(never)]
+    fn issue_queued(&mut self, dram: &mut Dram<Tag>, now: Cycle) -> bool {
         for q in [&mut self.demand, &mut self.writes, &mut self.prefetch, &mut self.output] {
             if let Some(r) = q.front() {
                 if r.bytes == 0 {
                     q.pop_front();
+                    self.queued -= 1;
                     continue;
                 }
                 return match dram.request(now, r.client, r.access, r.bytes, r.tag) {
                     Ok(()) => {
                         q.pop_front();
+                        self.queued -= 1;
                         true
                     }
                     Err(_) => false,

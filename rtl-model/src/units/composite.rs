@@ -38,7 +38,7 @@ use super::dest_cache::DestCache;
 use super::raster::Stamped;
 use super::tile_manager::TileManager;
 use super::transform::TransformUnit;
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
@@ -139,16 +139,9 @@ pub struct CompositeStage<'s> {
 
 impl<'s> CompositeStage<'s> {
     /// A compositor with the Z tolerances `slope_tol`, `rel_tol`, `lanes`
-    /// stamps per cycle, for the warp by `tu`.
-    pub fn new(tu: &'s TransformUnit, slope_tol: f64, rel_tol: f64, lanes: u32) -> Self {
-        CompositeStage {
-            tu,
-            slope_tol,
-            rel_tol,
-            lanes: lanes as usize,
-            verdicts: [0; 4],
-            activity: Activity::default(),
-        }
+    /// stamps per cycle, for the warp by `tu`, accounted by `activity`.
+    pub fn new(tu: &'s TransformUnit, slope_tol: f64, rel_tol: f64, lanes: u32, activity: Activity) -> Self {
+        CompositeStage { tu, slope_tol, rel_tol, lanes: lanes as usize, verdicts: [0; 4], activity }
     }
 
     /// One cycle (rule 5).
@@ -213,18 +206,14 @@ impl<'s> CompositeStage<'s> {
         } else {
             Tick::stall(StallReason::Upstream)
         };
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 
     /// Verdicts in this warp, in [`Verdict`] order (samples).

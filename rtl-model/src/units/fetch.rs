@@ -34,9 +34,10 @@
 //! its covered samples with no delay), compression of the stream.
 
 use super::transform::{InFlightSample, TransformStage};
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::hw_reference::HwReference;
+use crate::lru::Lru;
 use crate::mem::{Access, Client, MemPort, Req, Tag};
 use crate::schedule::FetchInterval;
 use crate::traversal::Major;
@@ -77,11 +78,8 @@ pub struct SourceCache {
     used: u64,
     state: Vec<BlockState>,
     bytes: Vec<u64>,
-    /// Resident blocks (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per block: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident blocks in replacement order.
+    lru: Lru,
     /// Per sample column: its block column (`x / side`).
     col_block: Vec<u32>,
     /// Per sample row: the number of its block row's first block.
@@ -112,9 +110,7 @@ impl SourceCache {
             used: 0,
             state: vec![BlockState::Absent; n],
             bytes: b,
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; n],
+            lru: Lru::new(n),
             col_block: (0..w).map(|x| x / side).collect(),
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
@@ -170,36 +166,25 @@ impl SourceCache {
     pub fn arrived(&mut self, b: u32, now: Cycle) {
         let now = now.get();
         let need = self.bytes[b as usize];
-        while self.used + need > self.capacity && !self.resident.is_empty() {
+        while self.used + need > self.capacity
+            && let Some(v) = self.lru.oldest_where(|_| true)
+        {
             // Least recently used, ties to the lowest block number.
-            let mut k = 0;
-            for j in 1..self.resident.len() {
-                if (self.resident_use[j], self.resident[j]) < (self.resident_use[k], self.resident[k]) {
-                    k = j;
-                }
-            }
-            let v = self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[v as usize] = u32::MAX;
+            self.lru.remove(v);
             self.used -= self.bytes[v as usize];
             self.state[v as usize] = BlockState::Absent;
             self.counters.evictions += 1;
         }
         self.used += need;
         self.state[b as usize] = BlockState::Resident;
-        self.pos[b as usize] = self.resident.len() as u32;
-        self.resident.push(b);
-        self.resident_use.push(now);
+        self.lru.insert(b, now);
     }
 
     /// Read sample data from block `b` at `now`: true if on chip.
     #[inline]
     pub fn touch(&mut self, b: u32, now: Cycle) -> bool {
         if self.state[b as usize] == BlockState::Resident {
-            self.resident_use[self.pos[b as usize] as usize] = now.get();
+            self.lru.touch(b, now.get());
             true
         } else {
             false
@@ -227,15 +212,21 @@ pub struct FetchStage<'s> {
     pos: u32,
     /// Intervals whose blocks are queued (rule 3).
     prefetched: usize,
-    /// This cycle met an absent block.
-    block_wait: bool,
+    /// Since when the fetch unit has met an absent block in every tick.
+    waiting_since: Option<Cycle>,
     activity: Activity,
 }
 
 impl<'s> FetchStage<'s> {
     /// Stream `plan` from `reference` through `cache`, `lanes` samples per
-    /// cycle.
-    pub fn new(plan: &'s [FetchInterval], reference: &'s HwReference, cache: SourceCache, lanes: u32) -> Self {
+    /// cycle, accounted by `activity`.
+    pub fn new(
+        plan: &'s [FetchInterval],
+        reference: &'s HwReference,
+        cache: SourceCache,
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
         FetchStage {
             plan,
             reference,
@@ -244,8 +235,8 @@ impl<'s> FetchStage<'s> {
             interval: 0,
             pos: 0,
             prefetched: 0,
-            block_wait: false,
-            activity: Activity::default(),
+            waiting_since: None,
+            activity,
         }
     }
 
@@ -278,7 +269,7 @@ impl<'s> FetchStage<'s> {
         let r = self.reference;
         let mut pushed = 0;
         let mut stalled = None;
-        self.block_wait = false;
+        let mut block_wait = false;
         while self.interval < self.plan.len() {
             while self.prefetched < (self.interval + 2).min(self.plan.len()) {
                 let iv = self.plan[self.prefetched];
@@ -310,7 +301,7 @@ impl<'s> FetchStage<'s> {
                 if self.cache.state(b) == BlockState::Absent {
                     Self::queue_block(&mut self.cache, io.port, b);
                 }
-                self.block_wait = true;
+                block_wait = true;
                 stalled = Some(StallReason::Dram);
                 break;
             }
@@ -322,27 +313,32 @@ impl<'s> FetchStage<'s> {
             pushed += 1;
             self.pos += 1;
         }
+        // Rule 5: wait cycles run from the first tick that meets an absent
+        // block to the first that does not.
+        match (block_wait, self.waiting_since) {
+            (true, None) => self.waiting_since = Some(now),
+            (false, Some(since)) => {
+                self.cache.counters.wait_cycles += now - since;
+                self.waiting_since = None;
+            }
+            _ => {}
+        }
         let t = match (pushed, stalled) {
             (1.., _) => Tick::BUSY,
             (0, Some(r)) => Tick::stall(r),
             (0, None) => Tick::IDLE,
         };
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick; the wait counter
-    /// too if the fetch unit met an absent block (rule 5).
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-        if self.block_wait {
-            self.cache.counters.wait_cycles += span;
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        if let Some(since) = self.waiting_since.take() {
+            self.cache.counters.wait_cycles += now - since;
         }
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 }
 

@@ -69,7 +69,7 @@
 use super::dest_cache::DestCache;
 use super::tile_cache::TileState;
 use super::tile_manager::TileManager;
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
@@ -173,8 +173,14 @@ impl HoleFillUnit {
     /// written, is not listed.
     pub fn tap_positions(line: &Line, x: u32, y: u32, p: &HoleFillParams) -> impl Iterator<Item = (i64, i64)> + use<> {
         let line = *line;
+        Self::tap_offsets(p).into_iter().map(move |k| Self::tap(&line, x, y, k))
+    }
+
+    /// The taps' offsets along the previous line, in tap order: the near
+    /// taps −1, 0, +1, then the far taps −`far_offset`, +`far_offset`.
+    pub fn tap_offsets(p: &HoleFillParams) -> [i64; 5] {
         let f = p.far_offset as i64;
-        [-1, 0, 1, -f, f].into_iter().map(move |k| Self::tap(&line, x, y, k))
+        [-1, 0, 1, -f, f]
     }
 
     /// Linear index of tap `k` if it counts (rule 3).
@@ -289,9 +295,10 @@ pub struct HoleFillStage {
 }
 
 impl HoleFillStage {
-    /// The pass of `unit`, `lanes` samples per cycle.
-    pub fn new(unit: HoleFillUnit, lanes: u32) -> HoleFillStage {
-        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, activity: Activity::default() }
+    /// The pass of `unit`, `lanes` samples per cycle, accounted by
+    /// `activity`.
+    pub fn new(unit: HoleFillUnit, lanes: u32, activity: Activity) -> HoleFillStage {
+        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, activity }
     }
 
     /// Samples visited so far.
@@ -368,18 +375,14 @@ impl HoleFillStage {
         } else {
             Tick::IDLE
         };
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 }
 

@@ -45,10 +45,10 @@
 //! Not modelled: line-buffer capacity stalls (the buffer is sized for the
 //! longest line of the reference).
 
-use super::line_buffer::LineBuffer;
+use super::line_buffer::{LineBuffer, Sources, at};
 use super::tile_manager::TileManager;
 use super::transform::{TransformStage, TransformUnit, Warped};
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
@@ -197,6 +197,15 @@ pub struct KernelSetupPorts<'a> {
     pub tiles: &'a mut TileManager,
 }
 
+/// What kernel setup emits for one valid sample of a line.
+#[derive(Clone, Copy, Debug)]
+enum Emit {
+    /// Behind the derived camera: takes a slot, no kernel.
+    Culled,
+    /// A kernel for the rasterizer.
+    Kernel(Kernel),
+}
+
 /// Kernel setup's control for one warp (rule 6).
 pub struct KernelSetupStage<'s> {
     lines: &'s [Line],
@@ -207,7 +216,11 @@ pub struct KernelSetupStage<'s> {
     threshold: f64,
     lanes: usize,
     line: usize,
-    pos: u32,
+    /// The current line's emissions (its valid samples in visiting order)
+    /// once its kernels are computed, and how many have been emitted.
+    emits: Vec<Emit>,
+    computed: bool,
+    next_emit: usize,
     kernels: u64,
     culled: u64,
     activity: Activity,
@@ -215,7 +228,8 @@ pub struct KernelSetupStage<'s> {
 
 impl<'s> KernelSetupStage<'s> {
     /// Kernel setup over the schedule's `lines` (and their `need`) of a warp
-    /// of `reference` by `tu`, `lanes` kernels per cycle.
+    /// of `reference` by `tu`, `lanes` kernels per cycle, accounted by
+    /// `activity`.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         lines: &'s [Line],
@@ -225,6 +239,7 @@ impl<'s> KernelSetupStage<'s> {
         buffer: &'s mut LineBuffer,
         threshold: f64,
         lanes: u32,
+        activity: Activity,
     ) -> Self {
         buffer.begin_warp(reference.samples.width, reference.samples.height);
         KernelSetupStage {
@@ -236,10 +251,12 @@ impl<'s> KernelSetupStage<'s> {
             threshold,
             lanes: lanes as usize,
             line: 0,
-            pos: 0,
+            emits: Vec::new(),
+            computed: false,
+            next_emit: 0,
             kernels: 0,
             culled: 0,
-            activity: Activity::default(),
+            activity,
         }
     }
 
@@ -255,6 +272,12 @@ impl<'s> KernelSetupStage<'s> {
         self.line >= self.lines.len()
     }
 
+    fn next_line(&mut self) {
+        self.line += 1;
+        self.computed = false;
+        self.next_emit = 0;
+    }
+
     /// One cycle (rule 6).
     #[inline]
     pub fn tick(&mut self, now: Cycle, io: &mut KernelSetupPorts<'_>) -> Tick {
@@ -263,118 +286,127 @@ impl<'s> KernelSetupStage<'s> {
             absorbed += 1;
         }
         let done_intervals = io.transform.oldest_interval().unwrap_or(io.fetch_interval);
-        let r = self.reference;
         let mut emitted = 0;
         let mut stalled = None;
         while emitted < self.lanes && self.line < self.lines.len() {
             let Some(need) = self.need[self.line] else {
                 // Dead line: no kernels.
-                self.line += 1;
-                self.pos = 0;
+                self.next_line();
                 continue;
             };
             if need >= done_intervals {
                 stalled = Some(StallReason::Upstream);
                 break;
             }
-            let line = self.lines[self.line];
-            if self.pos == line.len() {
-                self.line += 1;
-                self.pos = 0;
-                continue;
+            if !self.computed {
+                self.compute_line(io.transform);
             }
-            let (x, y) = line.at(if line.step > 0 { line.lo + self.pos } else { line.hi - self.pos });
-            let i = r.grid.index(x, y);
-            if !r.valid_at(i) {
-                self.pos += 1;
+            let Some(&e) = self.emits.get(self.next_emit) else {
+                self.next_line();
                 continue;
-            }
+            };
             if !io.out.offer(now) {
                 stalled = Some(StallReason::FifoFull);
                 break;
             }
-            self.pos += 1;
+            self.next_emit += 1;
             emitted += 1;
-            assert!(
-                io.transform.has_transformed(i),
-                "kernel setup read ({x}, {y}) before the fetch plan transformed it"
-            );
-            if let Some(k) = self.kernel(io.transform, line.major, x, y) {
-                self.kernels += 1;
-                io.tiles.kernel_issued(self.line);
-                io.out.push(now, k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
-            } else {
-                self.culled += 1;
-            }
-        }
-        let t = if emitted > 0 || absorbed > 0 { Tick::BUSY } else { stalled.map_or(Tick::IDLE, Tick::stall) };
-        self.activity.record(t)
-    }
-
-    /// The kernel of valid sample `(x, y)` on the current line (`None`:
-    /// culled), rules 1–5.
-    #[inline]
-    fn kernel(&mut self, transform: &TransformStage, major: Major, x: u32, y: u32) -> Option<Kernel> {
-        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
-        let t = self.buffer.warped(tu, r, major, x, y)?;
-        let (xi, yi) = (x as i64, y as i64);
-        let done = |j: usize| transform.has_transformed(j);
-        let buf = &mut *self.buffer;
-        let groups = [
-            buf.group(tu, r, major, (xi - 1, yi - 1), threshold, done),
-            buf.group(tu, r, major, (xi, yi - 1), threshold, done),
-            buf.group(tu, r, major, (xi - 1, yi), threshold, done),
-            buf.group(tu, r, major, (xi, yi), threshold, done),
-        ];
-        let rec = *r.rec(major, x, y);
-        let (c, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
-        Some(Kernel {
-            line: self.line as u32,
-            sample: (x, y),
-            pos: t.pos,
-            inv_z: t.inv_z,
-            corners_box: bounding_box(&c),
-            colour: rec.colour,
-            fill_colour: self.fill_colour(major, x, y, &t, rec.colour, rec.z),
-            src_inv_z: rec.inv_z,
-            src_slopes: rec.slopes,
-        })
-    }
-
-    /// Rule 5: the hole-fill colour of sample `(x, y)` (warped `t`, colour
-    /// `colour`, depth `z`): its backward neighbour's colour on a forward
-    /// edge, else its own.
-    #[inline]
-    fn fill_colour(&mut self, major: Major, x: u32, y: u32, t: &Warped, colour: [f32; 3], z: f32) -> [f32; 3] {
-        let (r, tu) = (self.reference, self.tu);
-        let img = &r.samples;
-        if let Some((dx, dy)) = backward_step(&tu.setup.epipole_reference, x, y) {
-            let (nx, ny) = (x as i64 + dx as i64, y as i64 + dy as i64);
-            if nx >= 0 && ny >= 0 && nx < img.width as i64 && ny < img.height as i64 {
-                let k = r.grid.index(nx as u32, ny as u32);
-                if r.valid_at(k)
-                    && let Some(tn) = self.buffer.warped(tu, r, major, nx as u32, ny as u32)
-                {
-                    let offset = DVec2::new(dx as f64, dy as f64).length();
-                    let nk = r.rec(major, nx as u32, ny as u32);
-                    if nk.z > z && !one_surface(t, &tn, offset, self.threshold) {
-                        return nk.colour;
-                    }
+            match e {
+                Emit::Culled => self.culled += 1,
+                Emit::Kernel(k) => {
+                    self.kernels += 1;
+                    io.tiles.kernel_issued(self.line);
+                    io.out.push(now, k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
                 }
             }
         }
-        colour
+        let t = if emitted > 0 || absorbed > 0 { Tick::BUSY } else { stalled.map_or(Tick::IDLE, Tick::stall) };
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
+    /// The kernels of the current line's valid samples, in visiting order
+    /// (rules 1–5): a pure function of the reference and the warp, so the
+    /// host computes the whole line when kernel setup first reaches it.
+    fn compute_line(&mut self, transform: &TransformStage) {
+        let l = self.lines[self.line];
+        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
+        let src = Sources { tu, r, transform, threshold };
+        let (major, c) = (l.major, l.line as i64);
+        let (lo, hi) = (l.lo as i64, l.hi as i64);
+        let buf = &mut *self.buffer;
+        for line in [c - 1, c, c + 1] {
+            buf.fill_warps(src, major, line, lo - 1, hi + 1);
+        }
+        for line in [c - 1, c] {
+            buf.fill_groups(src, major, line, lo - 1, hi);
+        }
+        self.emits.clear();
+        self.emits.reserve(l.len() as usize);
+        let epipole = &tu.setup.epipole_reference;
+        for k in 0..l.len() as i64 {
+            let a = if l.step > 0 { lo + k } else { hi - k };
+            let (x, y) = at(major, c, a);
+            if !r.valid_at(r.grid.index(x, y)) {
+                continue;
+            }
+            let Some(t) = buf.warped(major, c, a) else {
+                self.emits.push(Emit::Culled);
+                continue;
+            };
+            // Corner order: (x-1, y-1), (x, y-1), (x-1, y), (x, y).
+            let groups = match major {
+                Major::Row => [
+                    buf.group(major, c - 1, a - 1),
+                    buf.group(major, c - 1, a),
+                    buf.group(major, c, a - 1),
+                    buf.group(major, c, a),
+                ],
+                Major::Column => [
+                    buf.group(major, c - 1, a - 1),
+                    buf.group(major, c, a - 1),
+                    buf.group(major, c - 1, a),
+                    buf.group(major, c, a),
+                ],
+            };
+            let rec = *r.rec(major, x, y);
+            let (corners, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
+            // Rule 5: a forward edge takes its backward neighbour's colour.
+            let mut fill_colour = rec.colour;
+            if let Some((dx, dy)) = backward_step(epipole, x, y) {
+                let (dl, da) = match major {
+                    Major::Row => (dy as i64, dx as i64),
+                    Major::Column => (dx as i64, dy as i64),
+                };
+                if let Some(tn) = buf.warped(major, c + dl, a + da) {
+                    let (nx, ny) = at(major, c + dl, a + da);
+                    let nk = r.rec(major, nx, ny);
+                    // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
+                    let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
+                    if nk.z > rec.z && !one_surface(&t, &tn, offset, threshold) {
+                        fill_colour = nk.colour;
+                    }
+                }
+            }
+            self.emits.push(Emit::Kernel(Kernel {
+                line: self.line as u32,
+                sample: (x, y),
+                pos: t.pos,
+                inv_z: t.inv_z,
+                corners_box: bounding_box(&corners),
+                colour: rec.colour,
+                fill_colour,
+                src_inv_z: rec.inv_z,
+                src_slopes: rec.slopes,
+            }));
+        }
+        self.computed = true;
     }
 
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 
     /// Kernels set up and samples culled in this warp.

@@ -2,8 +2,8 @@
 //! around the current one, and the verdicts of their 2x2 groups.
 //!
 //! Job: give kernel setup the transform of any valid sample of the current
-//! line and its neighbours (`warped`), and the verdict of any 2x2 group
-//! around them (`group`), each computed once per warp.
+//! line and of its two neighbour lines, and the verdict of any 2x2 group
+//! around them, each computed once per warp.
 //!
 //! Ports: written by the transform results kernel setup absorbs; read by
 //! kernel setup (groups, corners, the forward-edge neighbour).
@@ -15,125 +15,197 @@
 //! 1. Its contents are pure functions of the reference samples and the
 //!    warp: the transform of a sample, and the verdict of a group, never
 //!    depend on when they are read.
-//! 2. It holds four lines of the current sheet (the line, the one before,
-//!    the one after, and the next one filling in), direct-mapped by line
-//!    number modulo 4 and tagged with the position and the warp; a read
-//!    that misses recomputes the same value (the host's memo of what the
-//!    hardware buffer holds).
+//! 2. Positions are `(line, along)`: the row and column of a row-major
+//!    sheet, or the column and row of a column-major one. The buffer holds
+//!    four lines of warped samples and four lines of group verdicts, by
+//!    line number modulo 4, each tagged with the warp, the sheet's axis and
+//!    the line, over the range of positions computed so far; a read of a
+//!    position not yet computed computes it (the host's model of what the
+//!    hardware buffer holds when kernel setup reads it).
+//! 3. A group is named by its top-left sample `(gx, gy)` in image
+//!    coordinates, and covers `gx..=gx+1 × gy..=gy+1`; groups reaching past
+//!    the image do not exist.
+//! 4. Computing the transform of a valid sample checks that the transform
+//!    unit has streamed it in this warp (a schedule that lets kernel setup
+//!    read ahead of the fetch plan is a bug, and panics).
 //!
 //! Not modelled: capacity stalls (the buffer is sized for the longest line
 //! of the reference), its write port (the transform's results arrive
 //! through the transform pipeline, which is timed).
 
 use super::kernel_setup::{Group, group};
-use super::transform::{TransformUnit, Warped};
+use super::transform::{TransformStage, TransformUnit, Warped};
 use crate::hw_reference::HwReference;
 use crate::traversal::Major;
-use glam::DVec2;
 
-/// A cached transform of sample `(x, y)` in warp `warp` (`some`: not
-/// culled).
-#[derive(Clone, Copy)]
-struct WarpEntry {
-    x: u32,
-    y: u32,
+/// One buffered line: values at positions `lo..=hi` along it.
+struct Row<T> {
     warp: u32,
-    some: bool,
-    w: Warped,
+    major: Major,
+    line: i64,
+    /// Computed range (inclusive; empty when `lo > hi`).
+    lo: i64,
+    hi: i64,
+    data: Vec<T>,
 }
 
-/// A cached verdict of the 2x2 group at `(x, y)` in warp `warp`.
-#[derive(Clone, Copy)]
-struct GroupEntry {
-    x: u32,
-    y: u32,
-    warp: u32,
-    g: Group,
+impl<T: Clone> Row<T> {
+    fn new(len: usize, fill: T) -> Row<T> {
+        Row { warp: 0, major: Major::Row, line: -1, lo: 0, hi: -1, data: vec![fill; len] }
+    }
+
+    /// The positions of `a0..=a1` still to compute, as up to two ranges,
+    /// after retagging the row for `(warp, major, line)` if it held another.
+    fn missing(&mut self, warp: u32, major: Major, line: i64, a0: i64, a1: i64) -> [(i64, i64); 2] {
+        if self.warp != warp || self.major != major || self.line != line || self.lo > self.hi {
+            self.warp = warp;
+            self.major = major;
+            self.line = line;
+            self.lo = a0;
+            self.hi = a1;
+            return [(a0, a1), (1, 0)];
+        }
+        if a0 > self.hi + 1 || a1 < self.lo - 1 {
+            // Disjoint from what is held: start the row afresh (no gap is
+            // ever claimed computed).
+            self.lo = a0;
+            self.hi = a1;
+            return [(a0, a1), (1, 0)];
+        }
+        let left = (a0, self.lo - 1);
+        let right = (self.hi + 1, a1);
+        self.lo = self.lo.min(a0);
+        self.hi = self.hi.max(a1);
+        [left, right]
+    }
 }
 
 /// The line buffer (module doc), reused across warps.
 #[derive(Default)]
 pub struct LineBuffer {
-    warps: Vec<WarpEntry>,
-    groups: Vec<GroupEntry>,
-    /// Entries per ring line (the longer image side).
-    stride: usize,
     warp_no: u32,
+    /// Lines along each axis: image height and width (samples).
+    size: (u32, u32),
+    warps: Vec<Row<Option<Warped>>>,
+    groups: Vec<Row<Option<Group>>>,
+}
+
+/// What the buffer reads to compute its contents.
+#[derive(Clone, Copy)]
+pub struct Sources<'a> {
+    /// The warp's transform unit.
+    pub tu: &'a TransformUnit,
+    /// The reference.
+    pub r: &'a HwReference,
+    /// The transform pipeline (which samples it has streamed).
+    pub transform: &'a TransformStage,
+    /// Discontinuity threshold (ratio of E).
+    pub threshold: f64,
 }
 
 impl LineBuffer {
     /// Ready the buffer for a warp of a `w x h` reference.
     pub fn begin_warp(&mut self, w: u32, h: u32) {
-        let stride = w.max(h) as usize;
-        if self.stride < stride {
-            self.stride = stride;
-            let none = Warped { pos: DVec2::ZERO, inv_z: 0.0, e: 0.0 };
-            self.warps = vec![WarpEntry { x: 0, y: 0, warp: 0, some: false, w: none }; 4 * stride];
-            self.groups = vec![GroupEntry { x: 0, y: 0, warp: 0, g: Group::Missing }; 4 * stride];
+        let len = w.max(h) as usize;
+        if self.warps.first().is_none_or(|r| r.data.len() < len) {
+            self.warps = (0..4).map(|_| Row::new(len, None)).collect();
+            self.groups = (0..4).map(|_| Row::new(len, None)).collect();
         }
         self.warp_no += 1;
+        self.size = (w, h);
     }
 
-    /// Ring slot of position `(x, y)` when the current line runs along
-    /// `major`.
-    #[inline(always)]
-    fn slot(&self, major: Major, x: u32, y: u32) -> usize {
-        match major {
-            Major::Row => (y & 3) as usize * self.stride + x as usize,
-            Major::Column => (x & 3) as usize * self.stride + y as usize,
-        }
-    }
-
-    /// The transform of valid sample `(x, y)` of `r` (`None`: culled).
-    #[inline(always)]
-    pub fn warped(&mut self, tu: &TransformUnit, r: &HwReference, major: Major, x: u32, y: u32) -> Option<Warped> {
-        let s = self.slot(major, x, y);
-        let wno = self.warp_no;
-        let e = &mut self.warps[s];
-        if e.warp == wno && e.x == x && e.y == y {
-            return e.some.then_some(e.w);
-        }
-        let w = tu.warp(x as f64, y as f64, r.rec(major, x, y).inv_z);
-        *e = WarpEntry { x, y, warp: wno, some: w.is_some(), w: w.unwrap_or(e.w) };
-        w
-    }
-
-    /// The verdict of the 2x2 group whose top-left sample is `(gx, gy)`
-    /// (`None`: the group leaves the `w x h` image). `transformed(gi)`
-    /// tells whether the transform has already streamed sample `gi` (grid
-    /// index) in this warp; reading one it has not is a schedule error.
-    #[allow(clippy::too_many_arguments)]
+    /// Lines and positions per line along `major`.
     #[inline]
-    pub fn group(
-        &mut self,
-        tu: &TransformUnit,
-        r: &HwReference,
-        major: Major,
-        (gx, gy): (i64, i64),
-        threshold: f64,
-        transformed: impl Fn(usize) -> bool,
-    ) -> Option<Group> {
-        let (w, h) = (r.samples.width, r.samples.height);
-        if gx < 0 || gy < 0 || gx as u32 + 1 >= w || gy as u32 + 1 >= h {
-            return None;
+    fn extent(&self, major: Major) -> (i64, i64) {
+        match major {
+            Major::Row => (self.size.1 as i64, self.size.0 as i64),
+            Major::Column => (self.size.0 as i64, self.size.1 as i64),
         }
-        let (gx, gy) = (gx as u32, gy as u32);
-        let s = self.slot(major, gx, gy);
-        let e = &self.groups[s];
-        if e.warp != self.warp_no || e.x != gx || e.y != gy {
-            let mut at = |x: u32, y: u32| {
-                let j = r.grid.index(x, y);
-                if r.valid_at(j) {
-                    assert!(transformed(j), "group read ({x}, {y}) before it was transformed");
-                    self.warped(tu, r, major, x, y)
+    }
+
+    /// Make sure line `line` holds warped samples at `a0..=a1` (clipped to
+    /// the image).
+    pub fn fill_warps(&mut self, s: Sources<'_>, major: Major, line: i64, a0: i64, a1: i64) {
+        let (lines, len) = self.extent(major);
+        let (a0, a1) = (a0.max(0), a1.min(len - 1));
+        if line < 0 || line >= lines || a0 > a1 {
+            return;
+        }
+        let row = &mut self.warps[(line & 3) as usize];
+        for (b0, b1) in row.missing(self.warp_no, major, line, a0, a1) {
+            for a in b0..=b1 {
+                let (x, y) = at(major, line, a);
+                let gi = s.r.grid.index(x, y);
+                row.data[a as usize] = if s.r.valid_at(gi) {
+                    assert!(s.transform.has_transformed(gi), "line buffer read ({x}, {y}) before it was transformed");
+                    s.tu.warp(x as f64, y as f64, s.r.rec(major, x, y).inv_z)
                 } else {
                     None
-                }
-            };
-            let (a, b, c, d) = (at(gx, gy), at(gx + 1, gy), at(gx, gy + 1), at(gx + 1, gy + 1));
-            let g = group(a, b, c, d, threshold);
-            self.groups[s] = GroupEntry { x: gx, y: gy, warp: self.warp_no, g };
+                };
+            }
         }
-        Some(self.groups[s].g)
+    }
+
+    /// Make sure group line `line` (groups whose top-left sample is on line
+    /// `line`) holds verdicts at `a0..=a1`; the warps of lines `line` and
+    /// `line + 1` over `a0..=a1 + 1` must be filled.
+    pub fn fill_groups(&mut self, s: Sources<'_>, major: Major, line: i64, a0: i64, a1: i64) {
+        let (lines, len) = self.extent(major);
+        let (a0, a1) = (a0.max(0), a1.min(len - 2));
+        if line < 0 || line + 1 >= lines || a0 > a1 {
+            return;
+        }
+        let wno = self.warp_no;
+        let (lower, upper) = ((line & 3) as usize, ((line + 1) & 3) as usize);
+        let row = &mut self.groups[(line & 3) as usize];
+        for (b0, b1) in row.missing(wno, major, line, a0, a1) {
+            for a in b0..=b1 {
+                let w = |l: usize, p: i64| self.warps[l].data[p as usize];
+                let (p, q, r, t) = (w(lower, a), w(lower, a + 1), w(upper, a), w(upper, a + 1));
+                // Rule 3: a = (gx, gy), b = (gx + 1, gy), c = (gx, gy + 1), d.
+                let g = match major {
+                    Major::Row => group(p, q, r, t, s.threshold),
+                    Major::Column => group(p, r, q, t, s.threshold),
+                };
+                row.data[a as usize] = Some(g);
+            }
+        }
+        debug_assert!(self.warps[lower].line == line && self.warps[upper].line == line + 1);
+    }
+
+    /// The warped sample at `(line, along)` (`None`: no surface, culled or
+    /// off the image). The line must be filled there.
+    #[inline(always)]
+    pub fn warped(&self, major: Major, line: i64, along: i64) -> Option<Warped> {
+        let (lines, len) = self.extent(major);
+        if line < 0 || line >= lines || along < 0 || along >= len {
+            return None;
+        }
+        let row = &self.warps[(line & 3) as usize];
+        debug_assert!(row.line == line && row.major == major && (row.lo..=row.hi).contains(&along));
+        row.data[along as usize]
+    }
+
+    /// The group whose top-left sample is at `(line, along)` (`None`: the
+    /// group leaves the image). The group line must be filled there.
+    #[inline(always)]
+    pub fn group(&self, major: Major, line: i64, along: i64) -> Option<Group> {
+        let (lines, len) = self.extent(major);
+        if line < 0 || line + 1 >= lines || along < 0 || along + 1 >= len {
+            return None;
+        }
+        let row = &self.groups[(line & 3) as usize];
+        debug_assert!(row.line == line && row.major == major && (row.lo..=row.hi).contains(&along));
+        row.data[along as usize]
+    }
+}
+
+/// Image coordinates of `(line, along)` on a sheet of axis `major`.
+#[inline(always)]
+pub fn at(major: Major, line: i64, along: i64) -> (u32, u32) {
+    match major {
+        Major::Row => (along as u32, line as u32),
+        Major::Column => (line as u32, along as u32),
     }
 }

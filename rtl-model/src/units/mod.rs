@@ -8,10 +8,11 @@
 //! unit reads or drives for that cycle. The engine owns the clock and the
 //! wires; a unit sees time only through `now`.
 //!
-//! Accounting: every tick leaves the unit in one [`UnitState`]; the engine
-//! then calls the stage's `charge(span)` with the number of cycles that
-//! state lasted (1, or the span of an idle stretch the engine skipped), so
-//! `busy + stall + idle` equals the cycles the unit was ticked through.
+//! Accounting: every tick leaves the unit in one [`UnitState`], which holds
+//! until the next tick that differs (the engine skips idle stretches
+//! between ticks); each stage's [`Activity`] charges a state when it ends,
+//! so `busy + stall + idle` equals the cycles the unit was ticked through,
+//! and can record the runs of states for a timeline.
 
 pub mod abuffer;
 pub mod composite;
@@ -27,6 +28,8 @@ pub mod resolve;
 pub mod tile_cache;
 pub mod tile_manager;
 pub mod transform;
+
+use crate::clock::Cycle;
 
 /// Why a unit that had work did not move it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -144,28 +147,81 @@ impl UnitCycles {
     }
 }
 
-/// The accounting half of a stage: the state of its last tick and the
-/// cycles charged so far.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Activity {
-    /// State of the last tick.
+/// A run of one state: cycles `start..end` (end exclusive).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Run {
+    /// The state.
     pub state: UnitState,
-    /// Cycles charged.
-    pub cycles: UnitCycles,
+    /// First cycle of the run.
+    pub start: Cycle,
+    /// First cycle after it.
+    pub end: Cycle,
+}
+
+/// The accounting half of a stage: the state of its last tick, since when
+/// it has held, the cycles charged to earlier states, and (when recording)
+/// the runs of states for a timeline.
+///
+/// A state is charged when it ends (the next tick with another state, or
+/// [`Activity::close`]): with the engine skipping idle stretches, a state
+/// lasts until the next tick that differs, so every cycle from the
+/// stage's start is charged to exactly one state.
+#[derive(Clone, Debug)]
+pub struct Activity {
+    state: UnitState,
+    since: Cycle,
+    cycles: UnitCycles,
+    runs: Option<Vec<Run>>,
 }
 
 impl Activity {
-    /// Record a tick's state and pass the tick on.
-    #[inline]
-    pub fn record(&mut self, t: Tick) -> Tick {
-        self.state = t.state;
+    /// A stage starting at `now` (idle until its first tick), recording
+    /// its runs if `record`.
+    pub fn starting(now: Cycle, record: bool) -> Activity {
+        Activity { state: UnitState::Idle, since: now, cycles: UnitCycles::default(), runs: record.then(Vec::new) }
+    }
+
+    /// Record a tick's state at `now` and pass the tick on.
+    #[inline(always)]
+    pub fn record(&mut self, now: Cycle, t: Tick) -> Tick {
+        if t.state != self.state {
+            self.switch(now, t.state);
+        }
         t
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.cycles.charge(self.state, span);
+    #[inline(never)]
+    fn switch(&mut self, now: Cycle, state: UnitState) {
+        let span = now - self.since;
+        if span > 0 {
+            self.cycles.charge(self.state, span);
+            if let Some(runs) = &mut self.runs {
+                runs.push(Run { state: self.state, start: self.since, end: now });
+            }
+        }
+        self.state = state;
+        self.since = now;
+    }
+
+    /// End the stage at `now`: charge the current state up to it.
+    pub fn close(&mut self, now: Cycle) {
+        let state = self.state;
+        self.switch(now, state);
+    }
+
+    /// State of the last tick.
+    pub fn state(&self) -> UnitState {
+        self.state
+    }
+
+    /// Cycles charged so far (the current state up to its last switch).
+    pub fn cycles(&self) -> UnitCycles {
+        self.cycles
+    }
+
+    /// The recorded runs (empty unless recording).
+    pub fn take_runs(&mut self) -> Vec<Run> {
+        self.runs.take().unwrap_or_default()
     }
 }
 
@@ -186,5 +242,23 @@ mod tests {
         d.add(&c);
         assert_eq!(d.total(), 36);
         assert_eq!(d.stall_by_reason.iter().sum::<u64>(), d.stall);
+    }
+
+    #[test]
+    fn activity_charges_each_state_until_the_next_change_and_records_runs() {
+        let mut a = Activity::starting(Cycle(10), true);
+        a.record(Cycle(10), Tick::BUSY);
+        a.record(Cycle(11), Tick::BUSY);
+        a.record(Cycle(12), Tick::stall(StallReason::Dram));
+        // Cycles 13..20 skipped by the engine: the stall lasts.
+        a.record(Cycle(20), Tick::IDLE);
+        a.close(Cycle(25));
+        let c = a.cycles();
+        assert_eq!((c.busy, c.stall, c.idle, c.stall_by_reason[0]), (2, 8, 5, 8));
+        assert_eq!(c.total(), 15);
+        let runs = a.take_runs();
+        assert_eq!(runs.len(), 3);
+        assert_eq!((runs[1].start, runs[1].end), (Cycle(12), Cycle(20)));
+        assert!(runs.windows(2).all(|w| w[0].end == w[1].start));
     }
 }

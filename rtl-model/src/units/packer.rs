@@ -30,7 +30,7 @@
 
 use super::abuffer::{AbufferCounters, AbufferParams, round_trip_dest_pixels};
 use super::dest_cache::DestCache;
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::mem::{Access, Client, MemPort, Req, Tag};
@@ -64,8 +64,8 @@ pub struct PackerStage<'s> {
 
 impl<'s> PackerStage<'s> {
     /// A packer releasing `releases` (visits needed, tile) in order with
-    /// the A-buffer format `params`, free from `now`.
-    pub fn new(releases: &'s [(u64, u32)], params: AbufferParams, now: Cycle) -> Self {
+    /// the A-buffer format `params`, free from `now`, accounted by `activity`.
+    pub fn new(releases: &'s [(u64, u32)], params: AbufferParams, now: Cycle, activity: Activity) -> Self {
         PackerStage {
             releases,
             params,
@@ -73,7 +73,7 @@ impl<'s> PackerStage<'s> {
             free_at: now,
             evictions: 0,
             counters: AbufferCounters::default(),
-            activity: Activity::default(),
+            activity,
         }
     }
 
@@ -107,7 +107,7 @@ impl<'s> PackerStage<'s> {
             _ if packing => Tick { state: super::UnitState::Busy, moved: false },
             _ => Tick::IDLE,
         };
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
     fn release(&mut self, now: Cycle, t: u32, io: &mut PackerPorts<'_>) {
@@ -124,15 +124,11 @@ impl<'s> PackerStage<'s> {
         self.free_at = now + u64::from(side * side);
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 
     /// Tiles released in this warp, and the packer's counters.

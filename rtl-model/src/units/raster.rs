@@ -37,7 +37,7 @@ use super::composite::Candidate;
 use super::kernel_setup::Kernel;
 use super::tile_manager::TileManager;
 use super::transform::TransformUnit;
-use super::{Activity, StallReason, Tick, UnitCycles};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
 use crate::frame_stats::RECT_HIST_MAX;
@@ -172,8 +172,15 @@ pub struct RasterStage<'s> {
 impl<'s> RasterStage<'s> {
     /// A rasterizer of `limit`-sample stamps into a `size` derived image,
     /// `lanes` rectangles per cycle, for the warp of reference number
-    /// `source` by `tu`.
-    pub fn new(tu: &'s TransformUnit, source: u8, limit: u32, size: (u32, u32), lanes: u32) -> Self {
+    /// `source` by `tu`, accounted by `activity`.
+    pub fn new(
+        tu: &'s TransformUnit,
+        source: u8,
+        limit: u32,
+        size: (u32, u32),
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
         RasterStage {
             tu,
             source,
@@ -182,7 +189,7 @@ impl<'s> RasterStage<'s> {
             lanes: lanes as usize,
             over_limit: 0,
             rects: [[0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
-            activity: Activity::default(),
+            activity,
         }
     }
 
@@ -235,18 +242,14 @@ impl<'s> RasterStage<'s> {
         } else {
             Tick::IDLE
         };
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 
     /// Kernels over the stamp, and non-empty stamps by drawn size, in this

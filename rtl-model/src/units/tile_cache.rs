@@ -33,6 +33,7 @@
 //! capacity beyond the engine's queue.
 
 use crate::clock::Cycle;
+use crate::lru::Lru;
 
 /// State of one tile within the current warp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,11 +85,8 @@ pub struct TileCacheCounters {
 pub struct TileCache {
     capacity: usize,
     state: Vec<TileState>,
-    /// Resident tiles (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per tile: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident tiles in replacement order.
+    lru: Lru,
     /// Tiles holding a slot: resident or loading.
     held: usize,
     /// Counters since the cache was made.
@@ -101,9 +99,7 @@ impl TileCache {
         TileCache {
             capacity,
             state: vec![TileState::Untouched; tiles],
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; tiles],
+            lru: Lru::new(tiles),
             held: 0,
             counters: TileCacheCounters::default(),
         }
@@ -123,12 +119,10 @@ impl TileCache {
     /// warps: the previous warp released every tile).
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
-        self.state.fill(TileState::Untouched);
-        for &t in &self.resident {
-            self.pos[t as usize] = u32::MAX;
+        while let Some(t) = self.lru.oldest_where(|_| true) {
+            self.lru.remove(t);
         }
-        self.resident.clear();
-        self.resident_use.clear();
+        self.state.fill(TileState::Untouched);
     }
 
     /// State of tile `t`.
@@ -145,7 +139,7 @@ impl TileCache {
         if self.state[ti] != TileState::Resident {
             return false;
         }
-        self.resident_use[self.pos[ti] as usize] = now.get();
+        self.lru.touch(t, now.get());
         if counted {
             self.counters.accesses += 1;
             self.counters.hits += 1;
@@ -163,7 +157,7 @@ impl TileCache {
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.resident_use[self.pos[ti] as usize] = now.get();
+                self.lru.touch(t, now.get());
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -203,12 +197,9 @@ impl TileCache {
     /// A load of tile `t` has arrived.
     #[inline]
     pub fn loaded(&mut self, t: u32, now: Cycle) {
-        let now = now.get();
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
-        self.pos[t as usize] = self.resident.len() as u32;
-        self.resident.push(t);
-        self.resident_use.push(now);
+        self.lru.insert(t, now.get());
     }
 
     /// Release tile `t` (rule 5): it must be resident.
@@ -219,28 +210,15 @@ impl TileCache {
     }
 
     fn remove_resident(&mut self, t: u32) {
-        let k = self.pos[t as usize];
-        if k != u32::MAX {
-            let k = k as usize;
-            self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[t as usize] = u32::MAX;
+        if self.lru.contains(t) {
+            self.lru.remove(t);
         }
         self.held -= 1;
     }
 
     /// The unpinned resident tile least recently used (ties: lowest number).
     fn victim(&self, pinned: &[u32]) -> Option<u32> {
-        let mut best: Option<(u64, u32)> = None;
-        for (&t, &u) in self.resident.iter().zip(&self.resident_use) {
-            if best.is_none_or(|b| (u, t) < b) && !pinned.contains(&t) {
-                best = Some((u, t));
-            }
-        }
-        best.map(|(_, t)| t)
+        self.lru.oldest_where(|t| !pinned.contains(&t))
     }
 
     fn spill(&mut self, t: u32) {

@@ -42,7 +42,7 @@
 //! Not modelled: fixed-point datapaths (FP64 arithmetic, FP32 storage, as
 //! in the golden model, so that the two agree bit for bit).
 
-use super::{Activity, StallReason, Tick, UnitCycles, UnitState};
+use super::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
 use crate::camera::{Camera, WarpSetup};
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
@@ -209,8 +209,8 @@ pub struct TransformStage {
 
 impl TransformStage {
     /// A pipeline of `throughput` lanes and `latency` cycles over a
-    /// reference whose grid has `grid_len` samples.
-    pub fn new(throughput: u32, latency: u32, grid_len: usize) -> TransformStage {
+    /// reference whose grid has `grid_len` samples, accounted by `activity`.
+    pub fn new(throughput: u32, latency: u32, grid_len: usize, activity: Activity) -> TransformStage {
         let slots = throughput as usize * (latency as usize + 1);
         TransformStage {
             pipe: Fifo::new(slots, latency as u64),
@@ -218,7 +218,7 @@ impl TransformStage {
             accepted: 0,
             refused: false,
             samples: 0,
-            activity: Activity::default(),
+            activity,
         }
     }
 
@@ -262,7 +262,7 @@ impl TransformStage {
     /// The stage's state in cycle `now`, after the fetch unit's offers of
     /// that cycle.
     #[inline]
-    pub fn tick(&mut self, _now: Cycle) -> Tick {
+    pub fn tick(&mut self, now: Cycle) -> Tick {
         let t = if self.accepted > 0 {
             Tick::BUSY
         } else if self.refused {
@@ -272,23 +272,19 @@ impl TransformStage {
         };
         self.accepted = 0;
         self.refused = false;
-        self.activity.record(t)
+        self.activity.record(now, t)
     }
 
-    /// Charge `span` cycles to the state of the last tick.
-    #[inline]
-    pub fn charge(&mut self, span: u64) {
-        self.activity.charge(span);
-    }
-
-    /// Cycles charged.
-    pub fn cycles(&self) -> UnitCycles {
-        self.activity.cycles
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 
     /// State of the last tick.
     pub fn state(&self) -> UnitState {
-        self.activity.state
+        self.activity.state()
     }
 
     /// Samples accepted in this warp (samples).
