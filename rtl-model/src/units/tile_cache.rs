@@ -33,7 +33,7 @@
 //! capacity beyond the engine's queue.
 
 use crate::clock::Cycle;
-use crate::lru::Lru;
+use super::fetch::least_recent;
 
 /// State of one tile within the current warp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,8 +85,11 @@ pub struct TileCacheCounters {
 pub struct TileCache {
     capacity: usize,
     state: Vec<TileState>,
-    /// Resident tiles in replacement order.
-    lru: Lru,
+    /// Resident tiles (unordered) and, in step, their last use.
+    resident: Vec<u32>,
+    resident_use: Vec<u64>,
+    /// Per tile: its position in `resident` (`u32::MAX`: not resident).
+    pos: Vec<u32>,
     /// Tiles holding a slot: resident or loading.
     held: usize,
     /// Counters since the cache was made.
@@ -99,7 +102,9 @@ impl TileCache {
         TileCache {
             capacity,
             state: vec![TileState::Untouched; tiles],
-            lru: Lru::new(tiles),
+            resident: Vec::new(),
+            resident_use: Vec::new(),
+            pos: vec![u32::MAX; tiles],
             held: 0,
             counters: TileCacheCounters::default(),
         }
@@ -119,10 +124,12 @@ impl TileCache {
     /// warps: the previous warp released every tile).
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
-        while let Some(t) = self.lru.oldest_where(|_| true) {
-            self.lru.remove(t);
-        }
         self.state.fill(TileState::Untouched);
+        for &t in &self.resident {
+            self.pos[t as usize] = u32::MAX;
+        }
+        self.resident.clear();
+        self.resident_use.clear();
     }
 
     /// State of tile `t`.
@@ -139,7 +146,7 @@ impl TileCache {
         if self.state[ti] != TileState::Resident {
             return false;
         }
-        self.lru.touch(t, now.get());
+        self.resident_use[self.pos[ti] as usize] = now.get();
         if counted {
             self.counters.accesses += 1;
             self.counters.hits += 1;
@@ -157,7 +164,7 @@ impl TileCache {
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.lru.touch(t, now.get());
+                self.resident_use[self.pos[ti] as usize] = now.get();
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -199,7 +206,9 @@ impl TileCache {
     pub fn loaded(&mut self, t: u32, now: Cycle) {
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
-        self.lru.insert(t, now.get());
+        self.pos[t as usize] = self.resident.len() as u32;
+        self.resident.push(t);
+        self.resident_use.push(now.get());
     }
 
     /// Release tile `t` (rule 5): it must be resident.
@@ -210,15 +219,22 @@ impl TileCache {
     }
 
     fn remove_resident(&mut self, t: u32) {
-        if self.lru.contains(t) {
-            self.lru.remove(t);
+        let k = self.pos[t as usize];
+        if k != u32::MAX {
+            let k = k as usize;
+            self.resident.swap_remove(k);
+            self.resident_use.swap_remove(k);
+            if let Some(&moved) = self.resident.get(k) {
+                self.pos[moved as usize] = k as u32;
+            }
+            self.pos[t as usize] = u32::MAX;
         }
         self.held -= 1;
     }
 
     /// The unpinned resident tile least recently used (ties: lowest number).
     fn victim(&self, pinned: &[u32]) -> Option<u32> {
-        self.lru.oldest_where(|t| !pinned.contains(&t))
+        least_recent(&self.resident_use, &self.resident, |t| !pinned.contains(&t)).map(|k| self.resident[k])
     }
 
     fn spill(&mut self, t: u32) {
