@@ -51,8 +51,6 @@
 //! Not modelled: storage cost (area), read/write port conflicts, items of
 //! different sizes, credit-return delay (a freed slot is reusable at once).
 
-use std::collections::VecDeque;
-
 use crate::clock::Cycle;
 
 /// Event counts of one [`Fifo`] since it was made (or last reset).
@@ -79,7 +77,7 @@ pub struct Fifo<T> {
     capacity: usize,
     latency: u64,
     /// Items with the cycle at which each becomes visible, oldest first.
-    items: VecDeque<(Cycle, T)>,
+    items: Ring<(Cycle, T)>,
     counters: FifoCounters,
     /// The cycle of the last refused push, so a full cycle counts once.
     last_refused: Option<Cycle>,
@@ -87,7 +85,7 @@ pub struct Fifo<T> {
     last_now: Cycle,
 }
 
-impl<T> Fifo<T> {
+impl<T: Copy> Fifo<T> {
     /// A FIFO of `capacity` slots (items, at least 1) and `latency` cycles
     /// from push to visibility (0 allowed: visible in the same cycle).
     ///
@@ -98,7 +96,7 @@ impl<T> Fifo<T> {
         Fifo {
             capacity,
             latency,
-            items: VecDeque::with_capacity(capacity),
+            items: Ring::new(capacity),
             counters: FifoCounters::default(),
             last_refused: None,
             last_now: Cycle::ZERO,
@@ -241,6 +239,71 @@ impl<T> Fifo<T> {
     fn observe(&mut self, now: Cycle) {
         self.check_time(now);
         self.last_now = now;
+    }
+}
+
+/// A fixed-capacity ring buffer of `Copy` items (the FIFO's storage; slots
+/// are written as they are first needed, so no item value is invented).
+#[derive(Clone, Debug)]
+struct Ring<E> {
+    buf: Vec<E>,
+    cap: usize,
+    head: usize,
+    len: usize,
+}
+
+impl<E: Copy> Ring<E> {
+    fn new(cap: usize) -> Ring<E> {
+        Ring { buf: Vec::with_capacity(cap), cap, head: 0, len: 0 }
+    }
+
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    #[inline(always)]
+    fn wrap(&self, i: usize) -> usize {
+        if i >= self.cap { i - self.cap } else { i }
+    }
+
+    /// Append; the caller keeps `len < cap`.
+    #[inline(always)]
+    fn push_back(&mut self, e: E) {
+        debug_assert!(self.len < self.cap);
+        let at = self.wrap(self.head + self.len);
+        if at == self.buf.len() {
+            self.buf.push(e);
+        } else {
+            self.buf[at] = e;
+        }
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn front(&self) -> Option<&E> {
+        (self.len > 0).then(|| &self.buf[self.head])
+    }
+
+    #[inline(always)]
+    fn front_mut(&mut self) -> Option<&mut E> {
+        (self.len > 0).then(|| &mut self.buf[self.head])
+    }
+
+    #[inline(always)]
+    fn pop_front(&mut self) -> Option<E> {
+        if self.len == 0 {
+            return None;
+        }
+        let e = self.buf[self.head];
+        self.head = self.wrap(self.head + 1);
+        self.len -= 1;
+        Some(e)
     }
 }
 

@@ -86,6 +86,17 @@ impl HwReference {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
     }
 
+    /// The records of line `line` along `major` (row `line`, or column
+    /// `line`), indexed by the position along it.
+    #[inline(always)]
+    pub(crate) fn line_recs(&self, major: Major, line: u32) -> &[RefSample] {
+        let (w, h) = (self.samples.width as usize, self.samples.height as usize);
+        match major {
+            Major::Row => &self.rows[line as usize * w..(line as usize + 1) * w],
+            Major::Column => &self.cols[line as usize * h..(line as usize + 1) * h],
+        }
+    }
+
     /// The record of sample `(x, y)`, from the copy laid out along `major`.
     #[inline(always)]
     pub(crate) fn rec(&self, major: Major, x: u32, y: u32) -> &RefSample {

@@ -37,6 +37,7 @@ use super::transform::{InFlightSample, TransformStage};
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::hw_reference::HwReference;
+use crate::lru::Lru;
 use crate::mem::{Access, Client, MemPort, Req, Tag};
 use crate::schedule::FetchInterval;
 use crate::traversal::Major;
@@ -77,11 +78,8 @@ pub struct SourceCache {
     used: u64,
     state: Vec<BlockState>,
     bytes: Vec<u64>,
-    /// Resident blocks (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per block: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident blocks in replacement order.
+    lru: Lru,
     /// Per sample column: its block column (`x / side`).
     col_block: Vec<u32>,
     /// Per sample row: the number of its block row's first block.
@@ -112,9 +110,7 @@ impl SourceCache {
             used: 0,
             state: vec![BlockState::Absent; n],
             bytes: b,
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; n],
+            lru: Lru::new(n),
             col_block: (0..w).map(|x| x / side).collect(),
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
@@ -171,52 +167,28 @@ impl SourceCache {
         let now = now.get();
         let need = self.bytes[b as usize];
         while self.used + need > self.capacity
-            && let Some(k) = least_recent(&self.resident_use, &self.resident, |_| true)
+            && let Some(v) = self.lru.victim(|_| true)
         {
-            let v = self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[v as usize] = u32::MAX;
+            self.lru.remove(v);
             self.used -= self.bytes[v as usize];
             self.state[v as usize] = BlockState::Absent;
             self.counters.evictions += 1;
         }
         self.used += need;
         self.state[b as usize] = BlockState::Resident;
-        self.pos[b as usize] = self.resident.len() as u32;
-        self.resident.push(b);
-        self.resident_use.push(now);
+        self.lru.insert(b, now);
     }
 
     /// Read sample data from block `b` at `now`: true if on chip.
     #[inline]
     pub fn touch(&mut self, b: u32, now: Cycle) -> bool {
         if self.state[b as usize] == BlockState::Resident {
-            self.resident_use[self.pos[b as usize] as usize] = now.get();
+            self.lru.touch(b, now.get());
             true
         } else {
             false
         }
     }
-}
-
-/// Position of the least recently used entry of a resident list whose id
-/// passes `keep` (ties to the lowest id): `uses[k]` and `ids[k]` describe
-/// entry `k`. One pass over packed `(use, id)` keys.
-#[inline]
-pub fn least_recent(uses: &[u64], ids: &[u32], keep: impl Fn(u32) -> bool) -> Option<usize> {
-    let mut best = u128::MAX;
-    let mut at = None;
-    for (k, (&u, &id)) in uses.iter().zip(ids).enumerate() {
-        let key = (u as u128) << 32 | id as u128;
-        if key < best && keep(id) {
-            best = key;
-            at = Some(k);
-        }
-    }
-    at
 }
 
 /// The fetch unit's ports for one cycle.

@@ -343,32 +343,31 @@ impl<'s> KernelSetupStage<'s> {
         self.emits.clear();
         self.emits.reserve(l.len() as usize);
         let epipole = &tu.setup.epipole_reference;
+        let len = match major {
+            Major::Row => r.samples.width as i64,
+            Major::Column => r.samples.height as i64,
+        };
+        let wcur = buf.warp_row(major, c).expect("the current line is on the image");
+        let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];
+        let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
+        let group = |row: Option<&[Option<Group>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
+        let recs = r.line_recs(major, l.line);
         for k in 0..l.len() as i64 {
             let a = if l.step > 0 { lo + k } else { hi - k };
             let (x, y) = at(major, c, a);
             if !r.valid_at(r.grid.index(x, y)) {
                 continue;
             }
-            let Some(t) = buf.warped(major, c, a) else {
+            let Some(t) = wcur[a as usize] else {
                 self.emits.push(Emit::Culled);
                 continue;
             };
             // Corner order: (x-1, y-1), (x, y-1), (x-1, y), (x, y).
             let groups = match major {
-                Major::Row => [
-                    buf.group(major, c - 1, a - 1),
-                    buf.group(major, c - 1, a),
-                    buf.group(major, c, a - 1),
-                    buf.group(major, c, a),
-                ],
-                Major::Column => [
-                    buf.group(major, c - 1, a - 1),
-                    buf.group(major, c, a - 1),
-                    buf.group(major, c - 1, a),
-                    buf.group(major, c, a),
-                ],
+                Major::Row => [group(gprev, a - 1), group(gprev, a), group(gcur, a - 1), group(gcur, a)],
+                Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
             };
-            let rec = *r.rec(major, x, y);
+            let rec = recs[a as usize];
             let (corners, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
             // Rule 5: a forward edge takes its backward neighbour's colour.
             let mut fill_colour = rec.colour;
@@ -377,8 +376,12 @@ impl<'s> KernelSetupStage<'s> {
                     Major::Row => (dy as i64, dx as i64),
                     Major::Column => (dx as i64, dy as i64),
                 };
-                if let Some(tn) = buf.warped(major, c + dl, a + da) {
-                    let (nx, ny) = at(major, c + dl, a + da);
+                let an = a + da;
+                if let Some(row) = neighbours[(dl + 1) as usize]
+                    && (0..len).contains(&an)
+                    && let Some(tn) = row[an as usize]
+                {
+                    let (nx, ny) = at(major, c + dl, an);
                     let nk = r.rec(major, nx, ny);
                     // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
                     let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };

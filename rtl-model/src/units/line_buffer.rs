@@ -152,6 +152,7 @@ impl LineBuffer {
     /// `line + 1` over `a0..=a1 + 1` must be filled.
     pub fn fill_groups(&mut self, s: Sources<'_>, major: Major, line: i64, a0: i64, a1: i64) {
         let (lines, len) = self.extent(major);
+        let reaches_end = a1 >= len - 1;
         let (a0, a1) = (a0.max(0), a1.min(len - 2));
         if line < 0 || line + 1 >= lines || a0 > a1 {
             return;
@@ -159,6 +160,10 @@ impl LineBuffer {
         let wno = self.warp_no;
         let (lower, upper) = ((line & 3) as usize, ((line + 1) & 3) as usize);
         let row = &mut self.groups[(line & 3) as usize];
+        if reaches_end {
+            // The group at the line's last position leaves the image.
+            row.data[len as usize - 1] = None;
+        }
         for (b0, b1) in row.missing(wno, major, line, a0, a1) {
             for a in b0..=b1 {
                 let w = |l: usize, p: i64| self.warps[l].data[p as usize];
@@ -174,30 +179,31 @@ impl LineBuffer {
         debug_assert!(self.warps[lower].line == line && self.warps[upper].line == line + 1);
     }
 
-    /// The warped sample at `(line, along)` (`None`: no surface, culled or
-    /// off the image). The line must be filled there.
+    /// The warped samples of line `line`, by position along it (`None`:
+    /// the line is off the image). Only positions filled for this line
+    /// hold its values.
     #[inline(always)]
-    pub fn warped(&self, major: Major, line: i64, along: i64) -> Option<Warped> {
+    pub fn warp_row(&self, major: Major, line: i64) -> Option<&[Option<Warped>]> {
         let (lines, len) = self.extent(major);
-        if line < 0 || line >= lines || along < 0 || along >= len {
-            return None;
-        }
-        let row = &self.warps[(line & 3) as usize];
-        debug_assert!(row.line == line && row.major == major && (row.lo..=row.hi).contains(&along));
-        row.data[along as usize]
+        (0..lines).contains(&line).then(|| {
+            let row = &self.warps[(line & 3) as usize];
+            debug_assert!(row.line == line && row.major == major);
+            &row.data[..len as usize]
+        })
     }
 
-    /// The group whose top-left sample is at `(line, along)` (`None`: the
-    /// group leaves the image). The group line must be filled there.
+    /// The group verdicts of group line `line` (groups whose top-left
+    /// sample is on it), by position along it; `None` in the last position,
+    /// whose group leaves the image, once filled that far. `None` for the
+    /// whole line if its groups leave the image.
     #[inline(always)]
-    pub fn group(&self, major: Major, line: i64, along: i64) -> Option<Group> {
+    pub fn group_row(&self, major: Major, line: i64) -> Option<&[Option<Group>]> {
         let (lines, len) = self.extent(major);
-        if line < 0 || line + 1 >= lines || along < 0 || along + 1 >= len {
-            return None;
-        }
-        let row = &self.groups[(line & 3) as usize];
-        debug_assert!(row.line == line && row.major == major && (row.lo..=row.hi).contains(&along));
-        row.data[along as usize]
+        (line >= 0 && line + 1 < lines).then(|| {
+            let row = &self.groups[(line & 3) as usize];
+            debug_assert!(row.line == line && row.major == major);
+            &row.data[..len as usize]
+        })
     }
 }
 

@@ -33,7 +33,7 @@
 //! capacity beyond the engine's queue.
 
 use crate::clock::Cycle;
-use super::fetch::least_recent;
+use crate::lru::Lru;
 
 /// State of one tile within the current warp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,11 +85,8 @@ pub struct TileCacheCounters {
 pub struct TileCache {
     capacity: usize,
     state: Vec<TileState>,
-    /// Resident tiles (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per tile: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident tiles in replacement order.
+    lru: Lru,
     /// Tiles holding a slot: resident or loading.
     held: usize,
     /// Counters since the cache was made.
@@ -102,9 +99,7 @@ impl TileCache {
         TileCache {
             capacity,
             state: vec![TileState::Untouched; tiles],
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; tiles],
+            lru: Lru::new(tiles),
             held: 0,
             counters: TileCacheCounters::default(),
         }
@@ -125,11 +120,7 @@ impl TileCache {
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
         self.state.fill(TileState::Untouched);
-        for &t in &self.resident {
-            self.pos[t as usize] = u32::MAX;
-        }
-        self.resident.clear();
-        self.resident_use.clear();
+        self.lru.clear();
     }
 
     /// State of tile `t`.
@@ -146,7 +137,7 @@ impl TileCache {
         if self.state[ti] != TileState::Resident {
             return false;
         }
-        self.resident_use[self.pos[ti] as usize] = now.get();
+        self.lru.touch(t, now.get());
         if counted {
             self.counters.accesses += 1;
             self.counters.hits += 1;
@@ -164,7 +155,7 @@ impl TileCache {
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.resident_use[self.pos[ti] as usize] = now.get();
+                self.lru.touch(t, now.get());
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -206,9 +197,7 @@ impl TileCache {
     pub fn loaded(&mut self, t: u32, now: Cycle) {
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
-        self.pos[t as usize] = self.resident.len() as u32;
-        self.resident.push(t);
-        self.resident_use.push(now.get());
+        self.lru.insert(t, now.get());
     }
 
     /// Release tile `t` (rule 5): it must be resident.
@@ -219,22 +208,15 @@ impl TileCache {
     }
 
     fn remove_resident(&mut self, t: u32) {
-        let k = self.pos[t as usize];
-        if k != u32::MAX {
-            let k = k as usize;
-            self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[t as usize] = u32::MAX;
+        if self.lru.contains(t) {
+            self.lru.remove(t);
         }
         self.held -= 1;
     }
 
     /// The unpinned resident tile least recently used (ties: lowest number).
-    fn victim(&self, pinned: &[u32]) -> Option<u32> {
-        least_recent(&self.resident_use, &self.resident, |t| !pinned.contains(&t)).map(|k| self.resident[k])
+    fn victim(&mut self, pinned: &[u32]) -> Option<u32> {
+        self.lru.victim(|t| !pinned.contains(&t))
     }
 
     fn spill(&mut self, t: u32) {
