@@ -59,6 +59,7 @@ use crate::fifo::Fifo;
 use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, MemPort, Tag};
 use crate::schedule::{Schedule, release_order};
+use crate::timeline::{Occupancy, Timeline};
 use crate::traversal::reverse_lines;
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
@@ -89,12 +90,15 @@ pub struct FrameOutput {
     pub covered: BitVec,
     /// Counters.
     pub stats: FrameStats,
+    /// The frame's timeline, when recording ([`Engine::record_timeline`]).
+    pub timeline: Option<Timeline>,
 }
 
 /// The hardware model: create one per configuration and run frames on it.
 pub struct Engine {
     cfg: EngineConfig,
     buffer: LineBuffer,
+    record: bool,
 }
 
 impl Engine {
@@ -110,7 +114,13 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
-        Ok(Engine { cfg, buffer: LineBuffer::default() })
+        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false })
+    }
+
+    /// Record a [`Timeline`] of every frame from now on (or stop). Values
+    /// and cycles do not change.
+    pub fn record_timeline(&mut self, on: bool) {
+        self.record = on;
     }
 
     /// The configuration.
@@ -138,7 +148,11 @@ impl Engine {
             units: [Cycles::default(); 7],
             stats: FrameStats { rects: vec![vec![0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1], ..FrameStats::default() },
             ab: AbufferCounters::default(),
+            timeline: self.record.then(|| Timeline::new(UNITS.len(), occupancy_series(cfg))),
         };
+        if m.timeline.is_some() {
+            m.dram.record_requests();
+        }
         m.dram.tick(m.now);
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
         for (j, (warp, r)) in cmd.warps.iter().zip(refs).enumerate() {
@@ -155,8 +169,13 @@ impl Engine {
         stats.forced_merges = m.ab.forced_merges;
         stats.hole_samples = f.hole.count_ones() as u64;
         stats.empty_samples = (0..f.len()).filter(|&i| !f.real[i] && !f.hole[i]).count() as u64;
+        let timeline = m.timeline.take().map(|mut t| {
+            t.close(m.now);
+            t.requests = m.dram.take_requests();
+            t
+        });
         let (pixels, covered) = resolve(&f, self.cfg.supersample);
-        FrameOutput { frame: f, pixels, covered, stats }
+        FrameOutput { frame: f, pixels, covered, stats, timeline }
     }
 }
 
@@ -182,6 +201,21 @@ struct Machine<'c> {
     units: [Cycles; 7],
     stats: FrameStats,
     ab: AbufferCounters,
+    timeline: Option<Timeline>,
+}
+
+/// The occupancy series a timeline records, in [`Pipeline::occupancy`]
+/// order.
+fn occupancy_series(cfg: &EngineConfig) -> Vec<Occupancy> {
+    let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * crate::config::CACHE_BYTES_PER_SAMPLE;
+    let pipe = cfg.transform_throughput as u64 * (cfg.transform_latency as u64 + 1);
+    vec![
+        Occupancy::new("transform pipeline", "samples", pipe),
+        Occupancy::new("kernel FIFO", "kernels", 2 * cfg.rects_per_cycle as u64),
+        Occupancy::new("stamp FIFO", "stamps", 2 * cfg.rects_per_cycle as u64),
+        Occupancy::new("memory port queues", "requests", 0),
+        Occupancy::new("destination cache", "tiles", cfg.dest_cache_bytes / tile_bytes),
+    ]
 }
 
 impl Machine<'_> {
@@ -233,9 +267,13 @@ impl Machine<'_> {
                 break;
             }
             let next = self.dram.next_completion();
+            let before = self.now;
             let span = self.advance(arrived || issued, next);
             for u in &mut self.units {
                 u.charge(UnitState::Idle, span);
+            }
+            if let Some(t) = &mut self.timeline {
+                t.occupancy[3].add(before, span, self.port.queued() as u64);
             }
         }
     }
@@ -244,7 +282,8 @@ impl Machine<'_> {
     fn run_warp(&mut self, f: &mut DestFrame, w: &WarpInput<'_>, buffer: &mut LineBuffer) {
         let plan = WarpPlan::new(self.cfg, w, (f.width, f.height));
         self.cache.begin_warp(w.number);
-        let mut p = Pipeline::new(self.cfg, w, &plan, buffer, self.now, false);
+        let start = self.now;
+        let mut p = Pipeline::new(self.cfg, w, &plan, buffer, self.now, self.timeline.is_some());
         loop {
             let now = self.now;
             // 1–2. Memory: completions, then one request.
@@ -275,9 +314,17 @@ impl Machine<'_> {
                 break;
             }
             let next = if moved { None } else { p.next_event(now, self.dram.next_completion()) };
-            self.advance(moved, next);
+            let span = self.advance(moved, next);
+            if let Some(t) = &mut self.timeline {
+                for (o, v) in t.occupancy.iter_mut().zip(p.occupancy(&self.port, &self.cache)) {
+                    o.add(now, span, v);
+                }
+            }
         }
         p.finish(&plan, self);
+        if let Some(t) = &mut self.timeline {
+            t.warps.push((start, self.now));
+        }
     }
 }
 
@@ -367,6 +414,17 @@ impl<'s> Pipeline<'s> {
             && self.packer.is_done(now)
     }
 
+    /// Occupancies for a timeline, in `occupancy_series` order.
+    fn occupancy(&self, port: &MemPort, cache: &DestCache) -> [u64; 5] {
+        [
+            self.transform.len() as u64,
+            self.kernels.len() as u64,
+            self.stamps.len() as u64,
+            port.queued() as u64,
+            cache.tags().occupancy() as u64,
+        ]
+    }
+
     /// The earliest event after a cycle in which nothing moved.
     fn next_event(&self, now: Cycle, dram: Option<Cycle>) -> Option<Cycle> {
         [
@@ -422,8 +480,11 @@ impl<'s> Pipeline<'s> {
         s.source_cache.block_reads += src.block_reads;
         s.source_cache.evictions += src.evictions;
         s.source_cache.wait_cycles += src.wait_cycles;
-        for (u, (c, _runs)) in m.units.iter_mut().zip(&closed) {
-            u.add(c);
+        for (k, (c, runs)) in closed.into_iter().enumerate() {
+            m.units[k].add(&c);
+            if let Some(t) = &mut m.timeline {
+                t.append_runs(k, runs);
+            }
         }
     }
 }

@@ -25,6 +25,7 @@ pub mod mem;
 pub mod sample_image;
 pub mod schedule;
 pub mod stats;
+pub mod timeline;
 pub mod traversal;
 pub mod units;
 

@@ -62,6 +62,7 @@ use std::collections::VecDeque;
 
 use crate::clock::Cycle;
 use crate::stats::{Histogram, StatDef, Stats};
+use crate::timeline::RequestSpan;
 
 /// Who asked for the data (one byte counter pair per client).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -224,6 +225,8 @@ pub struct Dram<T = u64> {
     last_refused: Option<Cycle>,
     now: Option<Cycle>,
     counters: DramCounters,
+    /// Every accepted request's lifetime, when recording (a timeline).
+    spans: Option<Vec<RequestSpan>>,
 }
 
 impl<T: Copy> Dram<T> {
@@ -241,6 +244,7 @@ impl<T: Copy> Dram<T> {
             last_refused: None,
             now: None,
             counters: DramCounters::default(),
+            spans: None,
         }
     }
 
@@ -335,7 +339,20 @@ impl<T: Copy> Dram<T> {
             }
         }
         c.latency.record(done - now);
+        if let Some(spans) = &mut self.spans {
+            spans.push(RequestSpan { client, access, bytes: rounded, accepted: now, done });
+        }
         Ok(())
+    }
+
+    /// Start recording every accepted request's lifetime (for a timeline).
+    pub fn record_requests(&mut self) {
+        self.spans.get_or_insert_with(Vec::new);
+    }
+
+    /// The requests recorded so far (empty unless recording).
+    pub fn take_requests(&mut self) -> Vec<RequestSpan> {
+        self.spans.take().unwrap_or_default()
     }
 
     /// The oldest outstanding request, if it has completed by `now`:

@@ -101,6 +101,12 @@ impl MemPort {
         self.queued += 1;
     }
 
+    /// Requests waiting in all queues (requests).
+    #[inline]
+    pub fn queued(&self) -> usize {
+        self.queued
+    }
+
     /// Writes waiting (requests).
     #[inline]
     pub fn writes_waiting(&self) -> usize {

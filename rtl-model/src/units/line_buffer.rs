@@ -133,16 +133,26 @@ impl LineBuffer {
             return;
         }
         let row = &mut self.warps[(line & 3) as usize];
+        let recs = s.r.line_recs(major, line as u32);
+        let step = match major {
+            Major::Row => (1.0, 0.0),
+            Major::Column => (0.0, 1.0),
+        };
         for (b0, b1) in row.missing(self.warp_no, major, line, a0, a1) {
-            for a in b0..=b1 {
+            if b0 > b1 {
+                continue;
+            }
+            let (x0, y0) = at(major, line, b0);
+            let out = &mut row.data[b0 as usize..=b1 as usize];
+            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| recs[b0 as usize + k].inv_z, out);
+            for (a, o) in (b0..=b1).zip(out.iter_mut()) {
                 let (x, y) = at(major, line, a);
                 let gi = s.r.grid.index(x, y);
-                row.data[a as usize] = if s.r.valid_at(gi) {
+                if s.r.valid_at(gi) {
                     assert!(s.transform.has_transformed(gi), "line buffer read ({x}, {y}) before it was transformed");
-                    s.tu.warp(x as f64, y as f64, s.r.rec(major, x, y).inv_z)
                 } else {
-                    None
-                };
+                    *o = None;
+                }
             }
         }
     }

@@ -79,7 +79,7 @@ fn geometric_focal(c: &Camera) -> f64 {
     (c.intrinsics.fx * c.intrinsics.fy).sqrt()
 }
 
-#[inline]
+#[inline(always)]
 fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
     let (a, b) = (dx * inv_f.0, dy * inv_f.1);
     a * a + b * b + 1.0
@@ -124,6 +124,38 @@ impl TransformUnit {
         let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
         let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
         Some(Warped { pos: w.position, inv_z: w.inv_z, e })
+    }
+
+    /// [`TransformUnit::warp`] of the run of samples `(x0 + k·dx, y0 +
+    /// k·dy)` with 1/Z `inv_z(k)`, `k < out.len()`: `out[k]` is the warp or
+    /// `None` where culled. The same operations as [`WarpSetup::warp`] in
+    /// the same order (the same bits; tested), without branches in the
+    /// arithmetic, so that the loop pipelines: the transform unit is one
+    /// pipeline streaming a line.
+    #[inline]
+    pub fn warp_run(
+        &self,
+        (x0, y0): (f64, f64),
+        (dx, dy): (f64, f64),
+        inv_z: impl Fn(usize) -> f64,
+        out: &mut [Option<Warped>],
+    ) {
+        let s = &self.setup;
+        let (h, e) = (&s.h, s.e_hat);
+        let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
+        for (k, o) in out.iter_mut().enumerate() {
+            let (x, y) = (x0 + k as f64 * dx, y0 + k as f64 * dy);
+            let delta = s.s1 * inv_z(k);
+            // glam's DMat3 · DVec3: x_axis·x + y_axis·y + z_axis·1, then + ê·δ.
+            let row = |i: usize| h.x_axis[i] * x + h.y_axis[i] * y + h.z_axis[i] * 1.0 + e[i] * delta;
+            let (nx, ny, w) = (row(0), row(1), row(2));
+            let (px, py, iz) = (nx / w, ny / w, delta / (s.s2 * w));
+            let ok = (w > 0.0) & px.is_finite() & py.is_finite() & iz.is_finite();
+            let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
+            let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
+            let e = (r1 / (r2 * w * w)).sqrt() * self.focal_ratio;
+            *o = ok.then_some(Warped { pos: DVec2::new(px, py), inv_z: iz, e });
+        }
     }
 
     /// Exact edge corner `(sx, sy)` (rule 2); `None` if behind the camera.
@@ -307,5 +339,33 @@ impl TransformStage {
     #[inline]
     pub fn next_visible(&self) -> Option<Cycle> {
         self.pipe.next_visible()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Intrinsics, Pose};
+    use glam::DQuat;
+
+    #[test]
+    fn a_run_warps_to_the_same_bits_as_one_sample_at_a_time() {
+        let k = Intrinsics { width: 64, height: 48, fx: 50.0, fy: 51.0, cx: 31.5, cy: 23.5 };
+        let src = Camera { intrinsics: k, pose: Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY } };
+        let dst = Camera {
+            intrinsics: k,
+            pose: Pose { position: DVec3::new(0.3, -0.1, 0.2), orientation: DQuat::from_rotation_y(0.2) },
+        };
+        let tu = TransformUnit::new(WarpSetup::new(&src, &dst), src, dst, vec![DVec3::ZERO], 0, 0.05);
+        let inv_z = |k: usize| if k % 7 == 3 { -2.0 } else { 0.1 + 0.37 * k as f64 };
+        for (start, step) in [((0.0, 5.0), (1.0, 0.0)), ((9.0, 40.0), (0.0, -1.0))] {
+            let mut out = [None; 40];
+            tu.warp_run(start, step, inv_z, &mut out);
+            for (j, o) in out.iter().enumerate() {
+                let (x, y) = (start.0 + j as f64 * step.0, start.1 + j as f64 * step.1);
+                assert_eq!(*o, tu.warp(x, y, inv_z(j)), "sample {j}");
+            }
+            assert!(out.iter().any(Option::is_none) && out.iter().any(Option::is_some));
+        }
     }
 }
