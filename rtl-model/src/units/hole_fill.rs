@@ -31,7 +31,7 @@
 //! 3. A hole looks one line back (`line − line_step` of its descriptor) at
 //!    offsets −1, 0, +1 along the line. A tap counts only if it is inside
 //!    the image, was visited earlier in this pass and has plane 7 set.
-//!    "Visited earlier" is decided by comparing [`Rank`]s (`rank(tap) <
+//!    "Visited earlier" is decided by comparing [`OrderKey`]s (`rank(tap) <
 //!    rank(sample)`), not by a visited bit-plane: since the samples arrive
 //!    in forward order, the two are the same thing.
 //! 4. No near tap counts: the sample stays unfilled
@@ -74,7 +74,7 @@ use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::mem::MemPort;
-use crate::traversal::{Line, Major, Rank, forward_lines};
+use crate::traversal::{Line, Major, OrderKey, forward_lines};
 
 /// Knobs of the pass (the golden configuration's `hole_far_distance`,
 /// `hole_far_offset`, `hole_max_distance`).
@@ -123,7 +123,7 @@ pub struct HoleFillUnit {
     height: u32,
     params: HoleFillParams,
     lines: Vec<Line>,
-    rank: Rank,
+    order: OrderKey,
     counters: HoleFillCounters,
 }
 
@@ -136,7 +136,7 @@ impl HoleFillUnit {
             height,
             params: p,
             lines: forward_lines(width, height, epipole_derived),
-            rank: Rank::new(width, height, epipole_derived),
+            order: OrderKey::new(width, height, epipole_derived),
             counters: HoleFillCounters::default(),
         }
     }
@@ -191,7 +191,7 @@ impl HoleFillUnit {
         }
         let (tx, ty) = (tx as u32, ty as u32);
         let j = f.index(tx, ty);
-        (self.rank.rank(tx, ty) < own_rank && f.fill_valid[j]).then_some(j)
+        (self.order.key(tx, ty) < own_rank && f.fill_valid[j]).then_some(j)
     }
 
     /// Process sample `(x, y)` of `line` (rules 2–6). Samples must come in
@@ -203,7 +203,7 @@ impl HoleFillUnit {
         if f.fill_valid[i] {
             return FillOutcome::Surface;
         }
-        let own = self.rank.rank(x, y);
+        let own = self.order.key(x, y);
         let p = self.params;
         let mut taps = [0usize; 5];
         let mut n = 0;

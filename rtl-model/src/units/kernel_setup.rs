@@ -47,7 +47,7 @@
 
 use super::line_buffer::{LineBuffer, Sources, at};
 use super::tile_manager::TileManager;
-use super::transform::{TransformStage, TransformUnit, Warped};
+use super::transform::{TransformStage, TransformUnit, Transformed};
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
 use crate::clock::Cycle;
@@ -71,7 +71,7 @@ pub enum Group {
 
 /// Rule 1.
 #[inline]
-pub fn one_surface(a: &Warped, b: &Warped, offset_len: f64, threshold: f64) -> bool {
+pub fn same_surface(a: &Transformed, b: &Transformed, offset_len: f64, threshold: f64) -> bool {
     let limit = threshold * offset_len * 0.5 * (a.e + b.e);
     (a.pos - b.pos).length_squared() <= limit * limit
 }
@@ -84,11 +84,17 @@ fn cross(a: DVec2, b: DVec2) -> f64 {
 /// The 2x2 group with samples `a` (top left), `b` (top right), `c` (bottom
 /// left), `d` (bottom right), rule 2.
 #[inline]
-pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<Warped>, threshold: f64) -> Group {
+pub fn group(
+    a: Option<Transformed>,
+    b: Option<Transformed>,
+    c: Option<Transformed>,
+    d: Option<Transformed>,
+    threshold: f64,
+) -> Group {
     let (Some(a), Some(b), Some(c), Some(d)) = (a, b, c, d) else { return Group::Missing };
     let r2 = std::f64::consts::SQRT_2;
     let pairs = [(&a, &b, 1.0), (&c, &d, 1.0), (&a, &c, 1.0), (&b, &d, 1.0), (&a, &d, r2), (&b, &c, r2)];
-    if !pairs.iter().all(|(p, q, o)| one_surface(p, q, *o, threshold)) {
+    if !pairs.iter().all(|(p, q, o)| same_surface(p, q, *o, threshold)) {
         return Group::Discontinuous;
     }
     let q = [a.pos, b.pos, d.pos, c.pos];
@@ -105,7 +111,7 @@ pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<
 #[inline]
 pub fn corners(
     tu: &TransformUnit,
-    t: &Warped,
+    t: &Transformed,
     x: u32,
     y: u32,
     inv_z: f64,
@@ -385,7 +391,7 @@ impl<'s> KernelSetupStage<'s> {
                     let nk = r.rec(major, nx, ny);
                     // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
                     let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
-                    if nk.z > rec.z && !one_surface(&t, &tn, offset, threshold) {
+                    if nk.z > rec.z && !same_surface(&t, &tn, offset, threshold) {
                         fill_colour = nk.colour;
                     }
                 }
@@ -422,8 +428,8 @@ impl<'s> KernelSetupStage<'s> {
 mod tests {
     use super::*;
 
-    fn w(x: f64, y: f64) -> Option<Warped> {
-        Some(Warped { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 })
+    fn w(x: f64, y: f64) -> Option<Transformed> {
+        Some(Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 })
     }
 
     #[test]

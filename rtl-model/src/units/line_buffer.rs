@@ -34,7 +34,7 @@
 //! through the transform pipeline, which is timed).
 
 use super::kernel_setup::{Group, group};
-use super::transform::{TransformStage, TransformUnit, Warped};
+use super::transform::{TransformStage, TransformUnit, Transformed};
 use crate::hw_reference::HwReference;
 use crate::traversal::Major;
 
@@ -86,7 +86,7 @@ pub struct LineBuffer {
     warp_no: u32,
     /// Lines along each axis: image height and width (samples).
     size: (u32, u32),
-    warps: Vec<Row<Option<Warped>>>,
+    warps: Vec<Row<Option<Transformed>>>,
     groups: Vec<Row<Option<Group>>>,
 }
 
@@ -193,7 +193,7 @@ impl LineBuffer {
     /// the line is off the image). Only positions filled for this line
     /// hold its values.
     #[inline(always)]
-    pub fn warp_row(&self, major: Major, line: i64) -> Option<&[Option<Warped>]> {
+    pub fn warp_row(&self, major: Major, line: i64) -> Option<&[Option<Transformed>]> {
         let (lines, len) = self.extent(major);
         (0..lines).contains(&line).then(|| {
             let row = &self.warps[(line & 3) as usize];

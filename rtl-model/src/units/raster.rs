@@ -44,7 +44,7 @@ use crate::frame_stats::RECT_HIST_MAX;
 
 /// A rasterized rectangle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Stamp {
+pub struct Rect {
     /// Covered columns, inclusive (empty if `x.0 > x.1`).
     pub x: (i64, i64),
     /// Covered rows, inclusive.
@@ -86,13 +86,13 @@ fn window(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
 /// Rasterize the box `[x0, x1) x [y0, y1)` of a kernel whose warped sample
 /// is at `centre`, with stamp side `limit`, in a `size` image.
 #[inline]
-pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, size: (u32, u32)) -> Stamp {
+pub fn rect(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, size: (u32, u32)) -> Rect {
     let (rx, ry) = (centres_in(x0, x1), centres_in(y0, y1));
     let n = |r: (i64, i64)| (r.1 - r.0 + 1).max(0) as u32;
     let kernel = (n(rx), n(ry));
     let over_limit = kernel.0 > limit || kernel.1 > limit;
     let (rx, ry) = (window(rx, centre.0, limit), window(ry, centre.1, limit));
-    Stamp {
+    Rect {
         x: (rx.0.max(0), rx.1.min(size.0 as i64 - 1)),
         y: (ry.0.max(0), ry.1.min(size.1 as i64 - 1)),
         size: kernel,
@@ -100,7 +100,7 @@ pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32,
     }
 }
 
-impl Stamp {
+impl Rect {
     /// True if no centre is covered.
     #[inline]
     pub fn is_empty(&self) -> bool {
@@ -131,7 +131,7 @@ pub struct Stamped {
     /// The schedule line of its kernel.
     pub line: u32,
     /// Covered derived samples.
-    pub stamp: Stamp,
+    pub stamp: Rect,
     /// The flat candidate.
     pub cand: Candidate,
     /// The reference sample.
@@ -206,7 +206,7 @@ impl<'s> RasterStage<'s> {
             let k = io.input.pop(now).expect("visible");
             did += 1;
             let (x0, x1, y0, y1) = k.corners_box;
-            let s = stamp(x0, x1, y0, y1, (k.pos.x, k.pos.y), self.limit, self.size);
+            let s = rect(x0, x1, y0, y1, (k.pos.x, k.pos.y), self.limit, self.size);
             self.over_limit += s.over_limit as u64;
             if s.is_empty() {
                 io.tiles.kernel_done(k.line);
@@ -265,11 +265,11 @@ mod tests {
 
     #[test]
     fn coverage_is_half_open_and_clipped_around_the_sample() {
-        let s = stamp(-0.5, 0.5, 0.5, 1.5, (0.0, 1.0), 4, (10, 10));
+        let s = rect(-0.5, 0.5, 0.5, 1.5, (0.0, 1.0), 4, (10, 10));
         assert_eq!((s.x, s.y), ((0, 0), (1, 1)));
-        let s = stamp(0.2, 0.8, 0.0, 1.0, (0.5, 0.5), 4, (10, 10));
+        let s = rect(0.2, 0.8, 0.0, 1.0, (0.5, 0.5), 4, (10, 10));
         assert!(s.is_empty());
-        let s = stamp(-0.5, 9.5, -0.5, 1.5, (5.2, 0.5), 4, (10, 10));
+        let s = rect(-0.5, 9.5, -0.5, 1.5, (5.2, 0.5), 4, (10, 10));
         assert_eq!((s.x, s.size, s.over_limit), ((4, 7), (10, 2), true));
         assert_eq!(s.drawn(), (4, 2));
         for v in [-2.5, -2.0, -0.0, 0.5, 1.0, 3.999999, 1e18, f64::NAN] {

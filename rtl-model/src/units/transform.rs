@@ -7,7 +7,7 @@
 //! the exact edge-splat corners and the better-reference mask.
 //!
 //! Ports: in, one reference sample `(x, y, 1/Z, slopes)` from the fetch
-//! unit; out, a [`Warped`] sample to kernel setup's line buffer.
+//! unit; out, a [`Transformed`] sample to kernel setup's line buffer.
 //!
 //! Throughput and latency: `transform_throughput` samples per cycle,
 //! `transform_latency` cycles (knobs; the engine models them with a
@@ -50,7 +50,7 @@ use glam::{DMat3, DVec2, DVec3};
 
 /// A warped reference sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Warped {
+pub struct Transformed {
     /// Derived-image position (samples).
     pub pos: DVec2,
     /// Derived 1/Z.
@@ -114,7 +114,7 @@ impl TransformUnit {
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if culled (behind the
     /// derived camera or not finite).
     #[inline]
-    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Warped> {
+    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
         let w = self.setup.warp(x, y, inv_z);
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
             return None;
@@ -123,7 +123,7 @@ impl TransformUnit {
         let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
         let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
         let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
-        Some(Warped { pos: w.position, inv_z: w.inv_z, e })
+        Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
     }
 
     /// [`TransformUnit::warp`] of the run of samples `(x0 + k·dx, y0 +
@@ -138,7 +138,7 @@ impl TransformUnit {
         (x0, y0): (f64, f64),
         (dx, dy): (f64, f64),
         inv_z: impl Fn(usize) -> f64,
-        out: &mut [Option<Warped>],
+        out: &mut [Option<Transformed>],
     ) {
         let s = &self.setup;
         let (h, e) = (&s.h, s.e_hat);
@@ -154,7 +154,7 @@ impl TransformUnit {
             let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
             let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
             let e = (r1 / (r2 * w * w)).sqrt() * self.focal_ratio;
-            *o = ok.then_some(Warped { pos: DVec2::new(px, py), inv_z: iz, e });
+            *o = ok.then_some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e });
         }
     }
 
