@@ -291,6 +291,9 @@ pub struct HoleFillStage {
     visits: u64,
     /// The tile the cursor is in (its look-up counted on entry).
     fill_tile: Option<u32>,
+    /// The current sample's tap look-ups were made and one missed: the
+    /// retry is not counted again.
+    tap_retry: bool,
     activity: Activity,
 }
 
@@ -298,7 +301,7 @@ impl HoleFillStage {
     /// The pass of `unit`, `lanes` samples per cycle, accounted by
     /// `activity`.
     pub fn new(unit: HoleFillUnit, lanes: u32, activity: Activity) -> HoleFillStage {
-        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, activity }
+        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, tap_retry: false, activity }
     }
 
     /// Samples visited so far.
@@ -350,14 +353,17 @@ impl HoleFillStage {
                     if tt == t || matches!(io.cache.state(tt), TileState::Untouched | TileState::Released) {
                         continue;
                     }
-                    if !io.cache.want(now, tt, true, &[t, tt], io.frame, io.port) {
+                    // A retry of the same sample's taps is not counted again.
+                    if !io.cache.want(now, tt, !self.tap_retry, &[t, tt], io.frame, io.port) {
                         ready = false;
                     }
                 }
                 if !ready {
+                    self.tap_retry = true;
                     stalled = StallReason::Tile;
                     break;
                 }
+                self.tap_retry = false;
             }
             self.unit.fill_sample(io.frame, &line, x, y);
             self.visits += 1;
