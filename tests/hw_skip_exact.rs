@@ -1,7 +1,7 @@
 //! The engine's idle skipping is exact: stepping every cycle
 //! (`Engine::skip_idle(false)`) gives the same counters, planes and pixels
 //! as jumping over the cycles in which nothing moves, on every bundled
-//! trace at the default, a small-cache and a long-latency configuration.
+//! trace at the default, two small-cache and a long-latency configuration.
 //!
 //! A unit that changes state with time alone, without an event the engine
 //! knows of (a request queued in a stalled cycle, an item in transit
@@ -37,6 +37,7 @@ fn check(trace: &str, frames: usize) {
             "small-cache",
             EngineConfig { dest_cache_bytes: 16 * 1024, source_cache_bytes: 8 * 1024, ..Default::default() },
         ),
+        ("tiny-cache", EngineConfig { dest_cache_bytes: 8 * 1024, source_cache_bytes: 4 * 1024, ..Default::default() }),
         ("long-latency", EngineConfig { dram_latency_cycles: 400, dram_max_outstanding: 4, ..Default::default() }),
     ];
     for (name, cfg) in configs {

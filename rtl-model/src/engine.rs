@@ -294,7 +294,7 @@ impl Machine<'_> {
             if self.port.is_empty() && self.dram.outstanding() == 0 {
                 break;
             }
-            let next = self.dram.next_completion();
+            let next = self.memory_event(self.now);
             let before = self.now;
             let span = self.advance(arrived || issued, next);
             for u in &mut self.units {
