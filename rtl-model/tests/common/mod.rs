@@ -226,3 +226,17 @@ pub fn activity(now: Cycle) -> Activity {
 pub fn stall(r: StallReason) -> UnitState {
     UnitState::Stall(r)
 }
+
+/// Proptest configuration: `default` cases, or the number in the
+/// environment variable `PROPTEST_CASES` when it is set. Failing seeds
+/// are kept in `tests/<suite>.proptest-regressions` and replayed first.
+pub fn prop_config(default: u32) -> proptest::test_runner::Config {
+    let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default);
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: Some(Box::new(proptest::test_runner::FileFailurePersistence::WithSource(
+            "proptest-regressions",
+        ))),
+        ..proptest::test_runner::Config::default()
+    }
+}
