@@ -56,11 +56,7 @@ fn scene() -> impl Strategy<Value = Scene> {
 
 fn build(s: &Scene) -> Warp {
     let img = image(s.w, s.h, |x, y| {
-        s.rects
-            .iter()
-            .rev()
-            .find(|r| (r.0..r.2).contains(&x) && (r.1..r.3).contains(&y))
-            .map(|r| (r.4, [0.5; 3]))
+        s.rects.iter().rev().find(|r| (r.0..r.2).contains(&x) && (r.1..r.3).contains(&y)).map(|r| (r.4, [0.5; 3]))
     });
     let cfg = postwarp_rtl::config::EngineConfig { tile_size: s.tile, ..config() };
     Warp::new(&img, DVec3::new(s.pos.0, s.pos.1, s.pos.2), s.yaw, cfg)
@@ -242,8 +238,13 @@ fn check_conservative(s: &Scene) -> Result<usize, TestCaseError> {
             for ty in cy.0 / s.tile as i64..=cy.1 / s.tile as i64 {
                 for tx in cx.0 / s.tile as i64..=cx.1 / s.tile as i64 {
                     let t = (ty * tw + tx) as usize;
-                    prop_assert!(sc.retire[t].is_some_and(|l| l as usize >= k),
-                        "tile {} written by line {} retires after {:?}", t, k, sc.retire[t]);
+                    prop_assert!(
+                        sc.retire[t].is_some_and(|l| l as usize >= k),
+                        "tile {} written by line {} retires after {:?}",
+                        t,
+                        k,
+                        sc.retire[t]
+                    );
                 }
             }
         }

@@ -72,7 +72,8 @@ fn a_line_starts_in_the_cycle_its_need_interval_leaves_the_transform_and_not_bef
     let mut out: Fifo<Kernel> = Fifo::new(64, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 64, activity(Cycle(0)));
+    let mut k =
+        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 64, activity(Cycle(0)));
     // The fetch unit pushes the last sample of interval n0 at cycle P: it
     // is visible at N = P + latency. Its cursor reads n0 until the end of
     // cycle P (kernel setup is ticked before the fetch unit).
@@ -119,7 +120,8 @@ fn a_full_kernel_fifo_stalls_it_on_fifo_full_until_the_rasterizer_pops() {
     let mut out: Fifo<Kernel> = Fifo::new(1, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 4, activity(Cycle(0)));
+    let mut k =
+        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 4, activity(Cycle(0)));
     let fi = s.fetch.len();
     let mut log = TickLog::new(Cycle(0));
     let mut io = Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
@@ -150,7 +152,8 @@ fn lanes_bound_each_cycle_samples_without_a_surface_cost_nothing_and_each_kernel
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
     let lanes = 3;
-    let mut k = KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, lanes, activity(Cycle(0)));
+    let mut k =
+        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, lanes, activity(Cycle(0)));
     let fi = s.fetch.len();
     let mut kernels = Vec::new();
     let mut c = 1;
@@ -206,7 +209,8 @@ fn a_culled_sample_takes_an_emission_slot_but_yields_no_kernel() {
     let mut out: Fifo<Kernel> = Fifo::new(64, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 2, activity(Cycle(0)));
+    let mut k =
+        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 2, activity(Cycle(0)));
     let fi = s.fetch.len();
     let mut busy = 0;
     for c in 1..1000 {

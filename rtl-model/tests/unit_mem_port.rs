@@ -52,7 +52,11 @@ fn a_request_queued_at_n_completes_at_n_plus_latency_plus_transfer_and_not_befor
         let issued = run(&mut d, &mut p, n, n + 200, &mut done);
         assert_eq!(issued, [n], "issued in the cycle it was queued");
         let transfer = bytes.div_ceil(32) * 32 / 16;
-        assert_eq!(done, [(n + latency + transfer, Tag::Tile { tile: 5, fresh: true })], "latency {latency}, {bytes} B");
+        assert_eq!(
+            done,
+            [(n + latency + transfer, Tag::Tile { tile: 5, fresh: true })],
+            "latency {latency}, {bytes} B"
+        );
         assert!(p.is_empty());
     }
 }

@@ -43,7 +43,13 @@ fn kernel(line: u32, pos: (f64, f64), half: f64) -> Kernel {
     }
 }
 
-fn tick(r: &mut RasterStage<'_>, now: Cycle, input: &mut Fifo<Kernel>, out: &mut Fifo<Stamped>, tiles: &mut TileManager) -> Tick {
+fn tick(
+    r: &mut RasterStage<'_>,
+    now: Cycle,
+    input: &mut Fifo<Kernel>,
+    out: &mut Fifo<Stamped>,
+    tiles: &mut TileManager,
+) -> Tick {
     r.tick(now, &mut RasterPorts { input, out, tiles })
 }
 
@@ -120,10 +126,7 @@ fn lanes_bound_the_kernels_per_cycle() {
         let t = tick(&mut r, Cycle(c), &mut input, &mut out, &mut tiles);
         per_cycle.push((before - input.len(), t.state));
     }
-    assert_eq!(
-        per_cycle,
-        [(2, UnitState::Busy), (2, UnitState::Busy), (1, UnitState::Busy), (0, UnitState::Idle)]
-    );
+    assert_eq!(per_cycle, [(2, UnitState::Busy), (2, UnitState::Busy), (1, UnitState::Busy), (0, UnitState::Idle)]);
     assert_eq!(out.len(), 5);
 }
 

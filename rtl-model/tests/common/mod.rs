@@ -17,12 +17,12 @@ use glam::{DQuat, DVec3};
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::hw_reference::HwReference;
+use postwarp_rtl::mem::MemPort;
 use postwarp_rtl::schedule::{FetchInterval, Schedule};
 use postwarp_rtl::traversal::reverse_lines;
 use postwarp_rtl::units::fetch::{FetchPorts, FetchStage, SourceCache};
 use postwarp_rtl::units::transform::{InFlightSample, TransformStage, TransformUnit};
 use postwarp_rtl::units::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
-use postwarp_rtl::mem::MemPort;
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage, WarpSetup};
 
 /// A camera of `w x h` samples (fx = fy = 40, principal point at the
@@ -195,8 +195,8 @@ impl TickLog {
         runs
     }
 
-    /// Check a stage's `close(end)` against the ticks seen: busy + stall
-    /// + idle = end − start, stalls split by reason sum to the stalls,
+    /// Check a stage's `close(end)` against the ticks seen: `busy + stall +
+    /// idle = end − start`, stalls split by reason sum to the stalls,
     /// each state charged exactly the cycles it held, and the recorded
     /// runs tile `start..end` in the states seen.
     pub fn check(&self, end: Cycle, (cycles, runs): (UnitCycles, Vec<Run>)) {
