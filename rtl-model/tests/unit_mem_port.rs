@@ -133,7 +133,6 @@ fn a_zero_byte_request_is_dropped_without_reaching_the_dram() {
 /// loads was written back with at least its pixel headers, so no 0-byte
 /// demand is queued), but a rule-1 violation of the port on its own.
 #[test]
-#[ignore = "model bug, reported: a dropped 0-byte demand head lets a write pass the next demand (mem/port.rs issue_queued)"]
 fn a_dropped_zero_byte_demand_does_not_let_a_write_pass_the_next_demand() {
     // A compulsory miss on a tile never written back queues a 0-byte demand
     // load (`units::dest_cache`); a real demand may follow it.

@@ -63,8 +63,8 @@ fn a_kernel_pushed_at_p_is_rasterized_at_p_plus_1_and_reaches_the_compositor_at_
     let k = kernel(0, (3.2, 4.1), 1.0);
     tiles.kernel_issued(0);
     input.push(p, k).unwrap();
-    // In the kernel FIFO's transit at P: nothing to take.
-    assert_eq!(tick(&mut r, p, &mut input, &mut out, &mut tiles).state, UnitState::Idle);
+    // In the kernel FIFO's transit at P: nothing to take yet.
+    assert_eq!(tick(&mut r, p, &mut input, &mut out, &mut tiles).state, UnitState::Stall(StallReason::Upstream));
     assert_eq!((input.len(), out.len()), (1, 0));
     let t = tick(&mut r, p + 1, &mut input, &mut out, &mut tiles);
     assert_eq!((t.state, t.moved, input.len(), out.len()), (UnitState::Busy, true, 0, 1));
