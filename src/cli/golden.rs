@@ -97,25 +97,15 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cfg = config(&a)?;
     let trace = Trace::open(&a.trace)?;
     let r = run_golden(&trace, &cfg, &a.out)?;
-    println!(
-        "{}: {} frames, method {}",
-        trace.manifest.display(),
-        trace.derived.len(),
-        r.report["method"].as_str().unwrap_or("?")
-    );
-    let slopes = &r.report["references"]["slopes"];
-    if slopes.as_array().is_some_and(|a| a.iter().any(|s| s == "finite-difference")) {
-        println!("slopes: computed from depth by finite differences for some reference frames ({slopes})");
+    println!("{}: {} frames, method {}", trace.manifest.display(), trace.derived.len(), r.report.method);
+    let slopes = &r.report.references.slopes;
+    if slopes.iter().any(|s| s.as_deref() == Some("finite-difference")) {
+        let list: Vec<&str> = slopes.iter().map(|s| s.as_deref().unwrap_or("unused")).collect();
+        println!("slopes: computed from depth by finite differences for some reference frames ({})", list.join(", "));
     }
     print!("{}", r.table);
     println!();
-    print!(
-        "{}",
-        crate::report::table::render_counters(
-            r.report["frames"].as_array().map(Vec::as_slice).unwrap_or(&[]),
-            &r.report["mean"]
-        )
-    );
+    print!("{}", crate::report::table::golden_counters(&r.report));
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())
 }
@@ -143,7 +133,7 @@ fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
     print!("{}", r.table);
     println!(
         "primitives per frame (mean): {} {}",
-        r.report["mean"]["primitives"].as_f64().map_or("-".into(), |v| format!("{v:.0}")),
+        format!("{:.0}", r.report.mean.primitives),
         rec.info().primitive
     );
     println!("wrote {}", a.out.join("report.json").display());

@@ -26,13 +26,13 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cfg = load(a.config.as_deref(), a.preset.as_deref())?;
     let trace = Trace::open(&a.trace)?;
     let r = run_simulate(&trace, &cfg, &a.out)?;
-    let total = &r.report["total"];
+    let total = &r.report.total;
     println!(
         "{}: {} frames on the hardware model; {} of {} identical to the golden model",
         trace.manifest.display(),
         trace.derived.len(),
-        total["identical_frames"],
-        total["frames"]
+        total.identical_frames,
+        total.frames
     );
     print!("{}", r.summary);
     println!("report: {}", a.out.join("report.json").display());
