@@ -111,7 +111,10 @@ impl OutDir {
         match std::fs::symlink_metadata(target) {
             Err(_) => {}
             Ok(m) if !m.is_dir() => {
-                bail!("{}: exists and is not a folder; expected a folder to write into (or a new name)", target.display())
+                bail!(
+                    "{}: exists and is not a folder; expected a folder to write into (or a new name)",
+                    target.display()
+                )
             }
             Ok(_) if !force => bail!(
                 "{}: already exists; give --force to replace it (its contents are removed, not mixed with this run's), \

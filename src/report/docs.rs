@@ -22,7 +22,6 @@ fn top(keys: &[KeyDoc]) -> String {
     s
 }
 
-
 /// The generated text (between [`BEGIN`] and [`END`], exclusive).
 pub fn key_lists() -> String {
     let mut s = String::new();

@@ -273,7 +273,17 @@ impl GoldenReport {
         let (total, mean) = super::reduce(&frames, &frame_keys(), |t| {
             t.insert("frames".into(), frames.len().into());
         });
-        GoldenReport { report_version: REPORT_VERSION, kind: ReportKind::Golden, trace, method, config, references, frames, total, mean }
+        GoldenReport {
+            report_version: REPORT_VERSION,
+            kind: ReportKind::Golden,
+            trace,
+            method,
+            config,
+            references,
+            frames,
+            total,
+            mean,
+        }
     }
 }
 
@@ -281,7 +291,12 @@ impl GoldenReport {
 pub fn frame_keys() -> Vec<KeyDoc> {
     let mut k = vec![scalar("index", "—", Reduce::Once, "derived frame index in the trace")];
     k.extend(super::quality::keys());
-    k.push(scalar("host_ms", "ms", Reduce::Sum, "host time of the golden model for this frame, one core (not deterministic)"));
+    k.push(scalar(
+        "host_ms",
+        "ms",
+        Reduce::Sum,
+        "host time of the golden model for this frame, one core (not deterministic)",
+    ));
     k.extend(counter_keys());
     k
 }
@@ -296,7 +311,12 @@ fn reference_keys() -> Vec<KeyDoc> {
             meaning: "per reference frame: `exact` or `finite-difference` (how its 1/Z slopes were obtained; `null` if \
                       unused)",
         },
-        scalar("prepare_ms", "ms", Reduce::Once, "A-buffer conversion time of the references (host, not deterministic)"),
+        scalar(
+            "prepare_ms",
+            "ms",
+            Reduce::Once,
+            "A-buffer conversion time of the references (host, not deterministic)",
+        ),
     ]
 }
 

@@ -299,7 +299,9 @@ impl HwRates {
             frame_rate_at_clock_hz: ratio(cfg.clock_hz as f64, c.cycles * views),
             dram_gbps_at_target_rate: gbps(bytes),
             dram_gbps_by_client: ByClient {
-                reference_fetch: gbps(c.dram_bytes_by_client.reference_fetch.read + c.dram_bytes_by_client.reference_fetch.write),
+                reference_fetch: gbps(
+                    c.dram_bytes_by_client.reference_fetch.read + c.dram_bytes_by_client.reference_fetch.write,
+                ),
                 tile_fill: gbps(c.dram_bytes_by_client.tile_fill.read + c.dram_bytes_by_client.tile_fill.write),
                 tile_write_back: gbps(
                     c.dram_bytes_by_client.tile_write_back.read + c.dram_bytes_by_client.tile_write_back.write,
@@ -321,7 +323,12 @@ fn read_write_keys() -> Vec<KeyDoc> {
 
 fn by_client_bytes_keys() -> Vec<KeyDoc> {
     vec![
-        nested("reference_fetch", Reduce::Sum, read_write_keys, "reference blocks read in A-buffer format by the fetch unit"),
+        nested(
+            "reference_fetch",
+            Reduce::Sum,
+            read_write_keys,
+            "reference blocks read in A-buffer format by the fetch unit",
+        ),
         nested(
             "tile_fill",
             Reduce::Sum,
@@ -380,7 +387,12 @@ fn composite_keys() -> Vec<KeyDoc> {
 fn unit_cycle_keys() -> Vec<KeyDoc> {
     vec![
         scalar("busy", "cycles", Reduce::Sum, "cycles the unit moved work"),
-        scalar("stall", "cycles", Reduce::Sum, "cycles it had work but waited (memory, a full FIFO, an upstream dependency)"),
+        scalar(
+            "stall",
+            "cycles",
+            Reduce::Sum,
+            "cycles it had work but waited (memory, a full FIFO, an upstream dependency)",
+        ),
         scalar("idle", "cycles", Reduce::Sum, "cycles it had nothing to do"),
     ]
 }
@@ -402,7 +414,12 @@ fn units_keys() -> Vec<KeyDoc> {
         ),
         nested("raster", Reduce::Sum, unit_cycle_keys, "rasterizer"),
         nested("composite", Reduce::Sum, unit_cycle_keys, "compositor"),
-        nested("hole_fill", Reduce::Sum, unit_cycle_keys, "hole-fill unit (stalls while waiting for retired or resident tiles)"),
+        nested(
+            "hole_fill",
+            Reduce::Sum,
+            unit_cycle_keys,
+            "hole-fill unit (stalls while waiting for retired or resident tiles)",
+        ),
         nested("abuffer", Reduce::Sum, unit_cycle_keys, "A-buffer packer (busy while packing a released tile)"),
     ]
 }
@@ -466,7 +483,12 @@ pub fn counter_keys() -> Vec<KeyDoc> {
              fetched by two sheets count twice)",
         ),
         scalar("culled_samples", "samples", Reduce::Sum, "reference samples on live lines behind the derived camera"),
-        scalar("live_lines", "lines", Reduce::Sum, "reference lines that may reach the derived image, summed over warps"),
+        scalar(
+            "live_lines",
+            "lines",
+            Reduce::Sum,
+            "reference lines that may reach the derived image, summed over warps",
+        ),
         scalar("dead_lines", "lines", Reduce::Sum, "reference lines skipped as off-screen, summed over warps"),
         nested("composite", Reduce::Sum, composite_keys, "composite verdicts, one per covered derived sample"),
         list(
@@ -475,7 +497,12 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "histogram: derived pixels by A-buffer fragments needed before merging (index = count), over every tile \
              write-back of the frame",
         ),
-        scalar("forced_merges", "merges", Reduce::Sum, "A-buffer merges forced by `max_fragments` in derived write-backs"),
+        scalar(
+            "forced_merges",
+            "merges",
+            Reduce::Sum,
+            "A-buffer merges forced by `max_fragments` in derived write-backs",
+        ),
         scalar("hole_samples", "samples", Reduce::Sum, "derived samples holding hole fill at the end"),
         scalar(
             "empty_samples",
@@ -495,10 +522,7 @@ pub fn counter_keys() -> Vec<KeyDoc> {
 }
 
 fn by_client_gbps_keys() -> Vec<KeyDoc> {
-    by_client_bytes_keys()
-        .into_iter()
-        .map(|k| scalar(k.key, "GB/s", Reduce::Derived, k.meaning))
-        .collect()
+    by_client_bytes_keys().into_iter().map(|k| scalar(k.key, "GB/s", Reduce::Derived, k.meaning)).collect()
 }
 
 /// The rows of [`HwRates`], in field order.

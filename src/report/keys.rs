@@ -87,12 +87,7 @@ pub const fn scalar(key: &'static str, unit: &'static str, reduce: Reduce, meani
 }
 
 /// A nested object described by `keys`.
-pub const fn nested(
-    key: &'static str,
-    reduce: Reduce,
-    keys: fn() -> Vec<KeyDoc>,
-    meaning: &'static str,
-) -> KeyDoc {
+pub const fn nested(key: &'static str, reduce: Reduce, keys: fn() -> Vec<KeyDoc>, meaning: &'static str) -> KeyDoc {
     KeyDoc { key, unit: "—", reduce, shape: Shape::Struct(keys), meaning }
 }
 
@@ -105,7 +100,8 @@ fn add(a: &Value, b: &Value) -> Value {
     match (a, b) {
         (Value::Number(x), Value::Number(y)) => match (x.as_u64(), y.as_u64()) {
             (Some(x), Some(y)) => Value::from(x.saturating_add(y)),
-            _ => Number::from_f64(x.as_f64().unwrap_or(0.0) + y.as_f64().unwrap_or(0.0)).map_or(Value::Null, Value::Number),
+            _ => Number::from_f64(x.as_f64().unwrap_or(0.0) + y.as_f64().unwrap_or(0.0))
+                .map_or(Value::Null, Value::Number),
         },
         (Value::Array(x), Value::Array(y)) => {
             let n = x.len().max(y.len());

@@ -75,10 +75,8 @@ pub fn upgrade(mut v: Value) -> anyhow::Result<Report> {
             primitive: string(&v, "primitive")?,
             runs: v.get("runs").and_then(Value::as_u64).ok_or_else(|| anyhow!("`runs`: expected a number"))? as u32,
         };
-        let references: MethodReferences =
-            serde_json::from_value(v["references"].take()).context("`references`")?;
-        let frames: Vec<MethodFrame> =
-            serde_json::from_value(Value::Array(frames)).context("`frames`")?;
+        let references: MethodReferences = serde_json::from_value(v["references"].take()).context("`references`")?;
+        let frames: Vec<MethodFrame> = serde_json::from_value(Value::Array(frames)).context("`frames`")?;
         return Ok(Report::Method(MethodReport::new(header, references, frames)));
     }
     let config = serde_json::from_value(v["config"].take()).context("`config`")?;

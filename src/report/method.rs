@@ -43,7 +43,11 @@ pub fn reconstruction_keys() -> Vec<KeyDoc> {
     vec![
         sum("reference_samples", "samples", "reference samples with a surface, over all warps"),
         sum("culled_samples", "samples", "reference samples (or vertices) behind the derived camera"),
-        sum("off_image", "primitives", "primitives drawn entirely off the derived image (samples, splats, triangles, quads)"),
+        sum(
+            "off_image",
+            "primitives",
+            "primitives drawn entirely off the derived image (samples, splats, triangles, quads)",
+        ),
         sum("lost", "samples", "candidate samples that lost the depth test"),
         sum("kernels_over_limit", "kernels", "mark-*: kernels larger than `kernel_limit` (clipped or allowed)"),
         sum("discontinuous_groups", "groups", "mark-*: 2x2 reference groups failing the discontinuity test"),
@@ -70,7 +74,11 @@ pub fn reconstruction_keys() -> Vec<KeyDoc> {
         sum("vertices", "vertices", "schollmeyer-*: distinct vertices"),
         sum("split_cells", "cells", "schollmeyer-*: cells split because a vertex is behind the camera or not finite"),
         sum("culled_cells", "cells", "schollmeyer-*: cells dropped behind the camera"),
-        sum("folded_triangles", "triangles", "triangles whose warped winding is not positive (folded, seen from behind)"),
+        sum(
+            "folded_triangles",
+            "triangles",
+            "triangles whose warped winding is not positive (folded, seen from behind)",
+        ),
         sum("linear_fragments", "samples", "schollmeyer-*: derived samples textured bilinearly"),
         sum("nearest_fragments", "samples", "schollmeyer-*: derived samples textured from the nearest sample"),
         sum("depth_lost", "samples", "schollmeyer-*: candidate samples that lost the depth test"),
@@ -287,9 +295,19 @@ pub fn frame_keys() -> Vec<KeyDoc> {
             Reduce::Sum,
             "median over `runs` runs of the method's host time for this frame, one core (not deterministic)",
         ),
-        scalar("primitives", "primitives", Reduce::Sum, "primitives drawn (the report's `primitive` says what they are)"),
+        scalar(
+            "primitives",
+            "primitives",
+            Reduce::Sum,
+            "primitives drawn (the report's `primitive` says what they are)",
+        ),
         scalar("hole_samples", "samples", Reduce::Sum, "derived samples holding hole fill at the end"),
-        scalar("empty_samples", "samples", Reduce::Sum, "derived samples with neither a surface nor fill (output black)"),
+        scalar(
+            "empty_samples",
+            "samples",
+            Reduce::Sum,
+            "derived samples with neither a surface nor fill (output black)",
+        ),
         nested("reconstruction", Reduce::Sum, reconstruction_keys, "the reconstruction's own counters (below)"),
         nested("hole_fill", Reduce::Sum, hole_fill_keys, "the hole fill's own counters (below)"),
     ]);
@@ -297,7 +315,12 @@ pub fn frame_keys() -> Vec<KeyDoc> {
 }
 
 fn reference_keys() -> Vec<KeyDoc> {
-    vec![scalar("prepare_ms", "ms", Reduce::Once, "per-reference preparation time, all references (host, not deterministic)")]
+    vec![scalar(
+        "prepare_ms",
+        "ms",
+        Reduce::Once,
+        "per-reference preparation time, all references (host, not deterministic)",
+    )]
 }
 
 fn total_keys() -> Vec<KeyDoc> {

@@ -104,7 +104,12 @@ pub(crate) fn header_keys() -> Vec<KeyDoc> {
             Reduce::Once,
             "version of this layout (2); files without it are version 1 (`docs/report.md`, reading older files)",
         ),
-        scalar("kind", "—", Reduce::Once, "the command that wrote it: `golden`, `method` (`golden --method`) or `simulate`"),
+        scalar(
+            "kind",
+            "—",
+            Reduce::Once,
+            "the command that wrote it: `golden`, `method` (`golden --method`) or `simulate`",
+        ),
         scalar("trace", "—", Reduce::Once, "path of the trace manifest"),
     ]
 }

@@ -180,7 +180,12 @@ pub fn frame_keys() -> Vec<KeyDoc> {
             "the hardware image scored against ground truth, with the golden report's metric keys; a pixel is \
              covered when all its samples hold real surfaces; `null` for a frame without ground truth",
         ),
-        scalar("host_ms", "ms", Reduce::Sum, "host time of the hardware model for this frame, one core (not deterministic)"),
+        scalar(
+            "host_ms",
+            "ms",
+            Reduce::Sum,
+            "host time of the hardware model for this frame, one core (not deterministic)",
+        ),
         scalar(
             "golden_host_ms",
             "ms",

@@ -142,8 +142,18 @@ fn fragments_per_pixel(h: &[f64]) -> f64 {
 pub fn golden_counters(r: &GoldenReport) -> String {
     let mut s = String::new();
     let heads = [
-        "excluded", "hole_smp", "empty_smp", "merges", "frag/px", "kernels", "k>limit", "side1%", "side2%", "side3%",
-        "side4%", "side5+%",
+        "excluded",
+        "hole_smp",
+        "empty_smp",
+        "merges",
+        "frag/px",
+        "kernels",
+        "k>limit",
+        "side1%",
+        "side2%",
+        "side3%",
+        "side4%",
+        "side5+%",
     ];
     let _ = write!(s, "{:>6}", "frame");
     for h in heads {
@@ -181,7 +191,13 @@ mod tests {
         let q = Scores { psnr_rgb_db: None, psnr_rgb_covered_db: None, ..Scores::default() };
         // Every pixel known, none covered (all hole-filled): the covered
         // PSNR has no pixel to be over; the RGB PSNR is +inf (identical).
-        let t = render(&[Row { label: "0".into(), scores: &q, scored_pixels: Some(12.0), covered_pixels: Some(0.0), host_ms: 1.0 }]);
+        let t = render(&[Row {
+            label: "0".into(),
+            scores: &q,
+            scored_pixels: Some(12.0),
+            covered_pixels: Some(0.0),
+            host_ms: 1.0,
+        }]);
         let cells: Vec<&str> = t.lines().nth(1).unwrap().split_whitespace().collect();
         assert_eq!(&cells[..3], ["0", "inf", "-"], "{t}");
     }

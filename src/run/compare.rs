@@ -14,9 +14,9 @@
 
 use super::method::run_method;
 use crate::methods::{HoleFill, Reconstruction};
+use crate::report::method::MethodMean;
 use crate::trace::Trace;
 use anyhow::Context;
-use crate::report::method::MethodMean;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -37,7 +37,13 @@ pub struct Column {
 
 /// Columns of the table, read from the report's `mean` (typed).
 pub const COLUMNS: &[Column] = &[
-    Column { value: |m| Some(m.primitives), csv: "primitives_per_frame", markdown: "primitives", decimals: 0, scale: 1.0 },
+    Column {
+        value: |m| Some(m.primitives),
+        csv: "primitives_per_frame",
+        markdown: "primitives",
+        decimals: 0,
+        scale: 1.0,
+    },
     Column { value: |m| Some(m.host_ms), csv: "host_ms_per_frame", markdown: "host ms", decimals: 2, scale: 1.0 },
     Column { value: |m| m.scores.psnr_luma_db, csv: "psnr_luma_db", markdown: "PSNR luma dB", decimals: 2, scale: 1.0 },
     Column { value: |m| m.scores.ssim_luma, csv: "ssim_luma", markdown: "SSIM", decimals: 4, scale: 1.0 },
@@ -77,12 +83,7 @@ pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) ->
             let dir = out.join(&name).join(format!("{m}+{f}"));
             let r = run_method(&trace, rec.as_ref(), fill.as_ref(), runs, &dir)
                 .with_context(|| format!("{name}: method {m} with hole fill {f}"))?;
-            rows.push(Row {
-                trace: name.clone(),
-                method: m.into(),
-                hole_fill: f.into(),
-                mean: r.report.mean.clone(),
-            });
+            rows.push(Row { trace: name.clone(), method: m.into(), hole_fill: f.into(), mean: r.report.mean.clone() });
         }
     }
     let csv = csv(&rows);

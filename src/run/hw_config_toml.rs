@@ -5,7 +5,7 @@
 //! an invalid value is rejected with a message naming the file and the knob;
 //! `preset = "NAME"` in the file picks the base (default `mark1998`).
 
-use anyhow::{Context, anyhow, bail};
+use anyhow::{anyhow, bail};
 use postwarp_rtl::config::{EngineConfig, KNOBS};
 use std::path::Path;
 
@@ -55,7 +55,7 @@ pub fn load(config: Option<&Path>, preset: Option<&str>) -> anyhow::Result<Engin
         (Some(_), Some(_)) => bail!("give --config or --preset, not both (a config file may name `preset = \"...\"`)"),
         (None, p) => EngineConfig::preset(p.unwrap_or("mark1998")).map_err(|e| anyhow!(e))?,
         (Some(path), None) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            let text = crate::io_util::read_text(path, "hardware configuration (TOML)")?;
             return from_text(&text, path);
         }
     };
@@ -132,7 +132,10 @@ fn json_of(v: &toml::Value) -> serde_json::Value {
 
 /// Every knob as `{name: value}`, in [`KNOBS`] order, for `report.json`.
 pub fn to_json_map(c: &EngineConfig) -> serde_json::Map<String, serde_json::Value> {
-    KNOBS.iter().map(|(name, _, _)| (name.to_string(), json_of(&get(c, name).expect("every knob has a value")))).collect()
+    KNOBS
+        .iter()
+        .map(|(name, _, _)| (name.to_string(), json_of(&get(c, name).expect("every knob has a value"))))
+        .collect()
 }
 
 /// [`to_json_map`] as a value.

@@ -185,7 +185,18 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     let _ = writeln!(
         s,
         "{:>6} {:>10} {:>9} {:>9} {:>9} {:>8} {:>7} {:>8} {:>7} {:>7} {:>9} {:>9}",
-        "frame", "cycles", "fps@clk", "rd_MB", "wr_MB", "GB/s@tgt", "dram%", "dc_hit%", "dc_cmp", "dc_cap", "=golden", "psnr_luma"
+        "frame",
+        "cycles",
+        "fps@clk",
+        "rd_MB",
+        "wr_MB",
+        "GB/s@tgt",
+        "dram%",
+        "dc_hit%",
+        "dc_cmp",
+        "dc_cap",
+        "=golden",
+        "psnr_luma"
     );
     let opt = |x: Option<f64>, scale: f64| x.map_or(f64::NAN, |v| v * scale);
     for f in &r.frames {
@@ -228,11 +239,8 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     for (i, (name, gbps)) in m.rates.dram_gbps_by_client.iter().into_iter().enumerate() {
         let _ = write!(s, "{} {name} {gbps:.3}", if i == 0 { "" } else { " +" });
     }
-    let _ = writeln!(
-        s,
-        "; utilisation {:.2} % of the peak over the frame's cycles",
-        opt(m.rates.dram_utilisation, 100.0)
-    );
+    let _ =
+        writeln!(s, "; utilisation {:.2} % of the peak over the frame's cycles", opt(m.rates.dram_utilisation, 100.0));
     s
 }
 

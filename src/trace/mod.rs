@@ -137,8 +137,9 @@ impl Trace {
     /// contents are checked when loaded.
     pub fn open(path: &Path) -> Result<Trace, TraceError> {
         let manifest = if path.is_dir() { path.join(MANIFEST_NAME) } else { path.to_path_buf() };
-        let text = crate::io_util::read_text(&manifest, "trace manifest (postwarp.trace, or a trace directory holding one)")
-            .map_err(|e| TraceError::file(&manifest, e.message))?;
+        let text =
+            crate::io_util::read_text(&manifest, "trace manifest (postwarp.trace, or a trace directory holding one)")
+                .map_err(|e| TraceError::file(&manifest, e.message))?;
         let dir = manifest.parent().map(Path::to_path_buf).unwrap_or_default();
         let mut trace = parse_manifest(&text, &manifest)?;
         trace.dir = dir;
