@@ -220,7 +220,9 @@ impl Metrics {
         let v = serde_json::to_value(self).expect("metrics serialize");
         match &v[col] {
             Value::Null => String::new(),
+            // This struct's own field, printed; not a report value read.
             Value::Number(n) => match n.as_f64() {
+                // own field
                 Some(x) if !n.is_u64() && !n.is_i64() => format!("{x}"),
                 _ => n.to_string(),
             },
