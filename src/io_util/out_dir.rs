@@ -6,7 +6,8 @@
 //!    everything is written ([`OutDir::commit`]). Until then nothing exists
 //!    under the target name, so an interrupted run leaves nothing that
 //!    loads; a run that fails removes its temporary folder.
-//! 2. An existing target is refused unless `force` is given (`--force`).
+//! 2. An existing target is refused unless it is an empty folder or `force`
+//!    is given (`--force`).
 //!    With `force` it is replaced, never mixed: at commit the old folder is
 //!    renamed aside (`.<name>.postwarp-old-<pid>-<n>`), the new one takes its
 //!    name, and the old one is removed. A target that is a file, or that
@@ -96,6 +97,11 @@ fn clean_leftovers(target: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Whether `p` is a folder with nothing in it (not a symbolic link).
+fn is_empty_dir(p: &Path) -> bool {
+    std::fs::symlink_metadata(p).is_ok_and(|m| m.is_dir()) && std::fs::read_dir(p).is_ok_and(|mut d| d.next().is_none())
+}
+
 /// Whether `inner` is `outer` or inside it (both made absolute).
 fn contains(outer: &Path, inner: &Path) -> bool {
     let (Ok(o), Ok(i)) = (outer.canonicalize(), inner.canonicalize()) else { return false };
@@ -116,6 +122,7 @@ impl OutDir {
                     target.display()
                 )
             }
+            Ok(_) if is_empty_dir(target) => {}
             Ok(_) if !force => bail!(
                 "{}: already exists; give --force to replace it (its contents are removed, not mixed with this run's), \
                  or choose another --out",
@@ -152,6 +159,11 @@ impl OutDir {
 
     /// Move the finished folder into place (rules 1, 2 and 4).
     pub fn commit(mut self) -> anyhow::Result<PathBuf> {
+        if is_empty_dir(&self.target) {
+            // Nothing to mix with: it gives way (a rename onto a folder is
+            // not portable).
+            let _ = std::fs::remove_dir(&self.target);
+        }
         let exists = std::fs::symlink_metadata(&self.target).is_ok();
         if exists && !self.force {
             bail!(
@@ -219,6 +231,14 @@ mod tests {
         o.commit().unwrap();
         assert_eq!(names(&target), ["b"], "replaced, not mixed");
         assert_eq!(names(dir.path()), ["out"], "no temporary or old folder left");
+        // An empty folder is no one's output: it is used without --force.
+        let empty = dir.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let o = OutDir::create(&empty, false, &[]).unwrap();
+        std::fs::write(o.path().join("c"), b"3").unwrap();
+        o.commit().unwrap();
+        assert_eq!(names(&empty), ["c"]);
+        std::fs::remove_dir_all(&empty).unwrap();
         // A failed run leaves nothing.
         let o = OutDir::create(&dir.path().join("new"), false, &[]).unwrap();
         std::fs::write(o.path().join("c"), b"3").unwrap();
