@@ -5,7 +5,7 @@ mod chart;
 mod compare;
 mod golden;
 mod import;
-mod info;
+pub mod info;
 pub mod make_trace;
 mod methods;
 mod simulate;
@@ -107,6 +107,14 @@ where
 
 /// Parse the process arguments and run; errors are printed to stderr.
 pub fn main() -> ExitCode {
+    // Rust ignores SIGPIPE, so printing into a closed pipe would panic;
+    // restore the default: the process ends when the reader goes away.
+    #[cfg(unix)]
+    // SAFETY: called once at start, before any thread; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = match parse_from(std::env::args_os()) {
         Ok(c) => c,
         Err(e) => e.exit(),
