@@ -259,7 +259,14 @@ pub fn summary(t: &TraceInfo) -> anyhow::Result<String> {
         if let Some(unknown) = f.unknown_truth_pixels.filter(|&u| u > 0) {
             writeln!(s, "     (frame {}: {unknown} ground-truth pixels marked unknown)", f.index)?;
         }
-        writeln!(s, "{:>4} {:>8.3} {:>6} {:>5}", f.index, f.time_s, refs.join(","), if f.truth { "yes" } else { "no" })?;
+        writeln!(
+            s,
+            "{:>4} {:>8.3} {:>6} {:>5}",
+            f.index,
+            f.time_s,
+            refs.join(","),
+            if f.truth { "yes" } else { "no" }
+        )?;
         for w in &f.warps {
             writeln!(
                 s,

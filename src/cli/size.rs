@@ -81,8 +81,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         if let Some(old) = &old_cache {
             r.relocate(old, d.target());
             let (from, to) = (old.join("traces"), d.path().join("traces"));
-            std::fs::rename(&from, &to)
-                .map_err(|e| anyhow::anyhow!("moving the trace cache {} into the new {}: {e}", from.display(), to.display()))?;
+            std::fs::rename(&from, &to).map_err(|e| {
+                anyhow::anyhow!("moving the trace cache {} into the new {}: {e}", from.display(), to.display())
+            })?;
         }
         let dir = d.commit()?;
         print!("{}", output::text(&r));

@@ -103,8 +103,8 @@ pub fn write_diff_heatmap(
     full_scale: f64,
 ) -> anyhow::Result<()> {
     let colours = diff_colours(image, truth, known, full_scale);
-    let (w, h, rgb) =
-        diff_heatmap_picture(width, height, &colours, full_scale).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    let (w, h, rgb) = diff_heatmap_picture(width, height, &colours, full_scale)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     write_png_srgb8(path, w, h, rgb)
 }
 

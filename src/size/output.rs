@@ -72,17 +72,15 @@ pub fn scored_against(o: &Outcome) -> Vec<String> {
     let q = &o.candidates[i];
     let on = o.scored_on().map_or_else(|| o.trace.display().to_string(), |p| p.display().to_string());
     let (truth_ss, truth_dir) = (&o.truth.0, o.truth.1.display());
-    let mut v = vec![
-        format!(
-            "quality: mean luma PSNR {:.3} dB, SSIM {:.4} over {} frames, measured by `postwarp simulate`'s code on the \
+    let mut v = vec![format!(
+        "quality: mean luma PSNR {:.3} dB, SSIM {:.4} over {} frames, measured by `postwarp simulate`'s code on the \
              trace {on} ({}x{} super-samples) against the ground truth of {truth_dir} (rendered at {truth_ss}x{truth_ss})",
-            q.psnr_luma_db.unwrap_or(f64::NAN),
-            q.ssim_luma.unwrap_or(f64::NAN),
-            q.frames,
-            c.supersample,
-            c.supersample,
-        ),
-    ];
+        q.psnr_luma_db.unwrap_or(f64::NAN),
+        q.ssim_luma.unwrap_or(f64::NAN),
+        q.frames,
+        c.supersample,
+        c.supersample,
+    )];
     if o.scored_on() == Some(o.truth.1.as_path()) {
         v.push(format!("reproduce: postwarp simulate {on} --config config.toml --out OUT"));
     } else {
@@ -103,11 +101,8 @@ pub fn toml(o: &Outcome) -> Option<String> {
     for line in scored_against(o) {
         let _ = writeln!(s, "# {line}");
     }
-    let _ = writeln!(
-        s,
-        "# simulate it on a trace with supersample = {} (the trace's super-sampling wins)",
-        c.supersample
-    );
+    let _ =
+        writeln!(s, "# simulate it on a trace with supersample = {} (the trace's super-sampling wins)", c.supersample);
     let _ = writeln!(s, "preset = \"{}\"", o.preset);
     let _ = writeln!(s, "supersample = {}", c.supersample);
     let _ = writeln!(s, "max_fragments = {}", c.max_fragments);
