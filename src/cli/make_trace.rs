@@ -2,7 +2,6 @@
 
 use crate::scene::Scene;
 use crate::tracegen::{PathKind, TraceSpec, make_trace};
-use anyhow::Context;
 use std::path::PathBuf;
 
 /// Flags of `postwarp make-trace` (defaults follow the paper's test-bed).
@@ -108,7 +107,13 @@ pub fn parse_made_by(command: &str) -> Option<Args> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let scene = Scene::load(&a.scene).with_context(|| format!("loading scene `{}`", a.scene))?;
+    // A path is opened only if it is a regular file (a FIFO would block
+    // the scene reader); the scene's own errors name it, once.
+    let as_path = std::path::Path::new(&a.scene);
+    if Scene::builtin_source(&a.scene).is_none() && std::fs::symlink_metadata(as_path).is_ok() {
+        crate::io_util::check_input_file(as_path, "scene description (TOML, docs/scene-format.md)")?;
+    }
+    let scene = Scene::load(&a.scene)?;
     let spec = a.spec();
     let command = std::iter::once("postwarp".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
     let start = std::time::Instant::now();

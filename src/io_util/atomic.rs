@@ -26,6 +26,12 @@ pub fn write_atomically<E>(path: &Path, write: impl FnOnce(&Path) -> Result<(), 
 where
     E: From<io::Error>,
 {
+    if path.is_dir() {
+        return Err(E::from(io::Error::new(
+            io::ErrorKind::IsADirectory,
+            format!("{}: is a directory; expected a file name to write", path.display()),
+        )));
+    }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| named(e, "creating the directory", dir))?;
     }
