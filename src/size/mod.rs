@@ -136,6 +136,11 @@ pub struct Outcome {
     /// whose truth it is, and the super-sampling it was rendered at
     /// (`variants` rule 3).
     pub truth: (u32, PathBuf),
+    /// The trace's own super-sampling (samples).
+    pub own_supersample: u32,
+    /// The output folder (`--out`), if any: paths under it are named
+    /// relative to it in the files written there.
+    pub out: Option<PathBuf>,
 }
 
 impl Outcome {
@@ -208,6 +213,11 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
             let hi = traces.last().expect("at least the trace itself");
             (hi.supersample, hi.dir.clone())
         },
+        own_supersample: traces
+            .iter()
+            .find(|t| !t.dir.starts_with(&o.cache_dir))
+            .map_or(traces[0].supersample, |t| t.supersample),
+        out: None,
     };
     // Quality stage (rule 2).
     let mut found = None;
@@ -329,6 +339,7 @@ pub fn size_and_write(o: &Options, out_dir: Option<(&Path, &Path)>) -> anyhow::R
     let mut r = run_size(o)?;
     if let Some((d, shown)) = out_dir {
         r.relocate(d, shown);
+        r.out = Some(shown.to_path_buf());
         output::write_files(&r, d)?;
     }
     Ok(r)

@@ -70,8 +70,14 @@ pub fn csv(o: &Outcome) -> String {
 pub fn scored_against(o: &Outcome) -> Vec<String> {
     let (Some(i), Some(c)) = (o.chosen, o.config.as_ref()) else { return Vec::new() };
     let q = &o.candidates[i];
-    let on = o.scored_on().map_or_else(|| o.trace.display().to_string(), |p| p.display().to_string());
-    let (truth_ss, truth_dir) = (&o.truth.0, o.truth.1.display());
+    // A path in the output folder is named relative to it (the folder can
+    // move; the files stay the same bytes wherever it is).
+    let shown = |p: &std::path::Path| match o.out.as_deref().and_then(|d| p.strip_prefix(d).ok()) {
+        Some(rest) => format!("{} (in the output folder)", rest.display()),
+        None => p.display().to_string(),
+    };
+    let on = o.scored_on().map_or_else(|| o.trace.display().to_string(), shown);
+    let (truth_ss, truth_dir) = (&o.truth.0, shown(&o.truth.1));
     let mut v = vec![format!(
         "quality: mean luma PSNR {:.3} dB, SSIM {:.4} over {} frames, measured by `postwarp simulate`'s code on the \
              trace {on} ({}x{} super-samples) against the ground truth of {truth_dir} (rendered at {truth_ss}x{truth_ss})",
@@ -81,12 +87,18 @@ pub fn scored_against(o: &Outcome) -> Vec<String> {
         c.supersample,
         c.supersample,
     )];
+    let own = o.own_supersample;
     if o.scored_on() == Some(o.truth.1.as_path()) {
         v.push(format!("reproduce: postwarp simulate {on} --config config.toml --out OUT"));
+    } else if c.supersample == own {
+        v.push(format!(
+            "`postwarp simulate {on} --config config.toml` scores against that trace's own ground truth \
+             ({own}x{own}) instead, so it can report another figure"
+        ));
     } else {
         v.push(format!(
-            "`postwarp simulate {on} --config config.toml` scores against that trace's own ground truth instead, and \
-             on {} it runs at the trace's own super-sampling; either can give another figure",
+            "`postwarp simulate {on} --config config.toml` scores against that trace's own ground truth instead; on \
+             {} it runs at the trace's {own}x{own} super-samples; either can report another figure",
             o.trace.display()
         ));
     }
@@ -201,8 +213,7 @@ pub fn json(o: &Outcome) -> serde_json::Value {
             super::SsSource::Fixed { reason } => json!({"fixed": reason}),
         },
         "config": o.config.as_ref().map(crate::run::hw_config_toml::to_json),
-        "scored_on": o.scored_on().map(|p| p.display().to_string()),
-        "truth": {"trace": o.truth.1.display().to_string(), "supersample": o.truth.0},
+        "scored_against": scored_against(o),
         "chosen": o.chosen.map(|i| &o.candidates[i]),
         "candidates": o.candidates,
     })
