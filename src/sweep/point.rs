@@ -236,7 +236,11 @@ impl Metrics {
 /// there, as `postwarp golden --method` / `postwarp simulate` would.
 pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow::Result<Metrics> {
     let quiet = indicatif::ProgressBar::hidden();
-    match run {
+    // The image folder is built under a temporary name and replaces an
+    // older one whole (a point is recomputed when another build stored it).
+    let staged = images.map(|d| crate::io_util::OutDir::create(d, true, &[&trace.manifest])).transpose()?;
+    let images = staged.as_ref().map(|s| s.path());
+    let m = match run {
         PointRun::Method { reconstruction, hole_fill, golden, runs } => {
             let mut rec = methods::reconstruction(reconstruction)?;
             if let Some(cfg) = golden {
@@ -246,13 +250,17 @@ pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow
             }
             let fill = methods::hole_fill(hole_fill)?;
             let r = measure_method(trace, rec.as_ref(), fill.as_ref(), *runs, images, &quiet)?;
-            Ok(Metrics::from_method_report(&r.report))
+            Metrics::from_method_report(&r.report)
         }
         PointRun::Hardware { config, .. } => {
             let r = measure_hardware(trace, config, images, &quiet)?;
-            Ok(Metrics::from_hardware_report(&r.report))
+            Metrics::from_hardware_report(&r.report)
         }
+    };
+    if let Some(s) = staged {
+        s.commit()?;
     }
+    Ok(m)
 }
 
 #[cfg(test)]
