@@ -98,6 +98,43 @@ pub fn log_ticks(r: &Range<f64>) -> Vec<f64> {
     if out.is_empty() { vec![r.start, r.end] } else { out }
 }
 
+/// An axis with the ticks given here (plotters never searches for its
+/// own): `inner` maps values, `ticks` are the labelled grid lines.
+pub struct Ticked<R> {
+    inner: R,
+    ticks: Vec<f64>,
+}
+
+impl<R: Ranged<ValueType = f64>> Ticked<R> {
+    /// `coord` (a range, or a range's `.log_scale()`) ticked at `ticks`.
+    pub fn new<C: AsRangedCoord<CoordDescType = R, Value = f64> + Into<R>>(coord: C, ticks: Vec<f64>) -> Ticked<R> {
+        Ticked { inner: coord.into(), ticks }
+    }
+}
+
+impl<R: Ranged<ValueType = f64>> Ranged for Ticked<R> {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.inner.map(value, limit)
+    }
+
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() { Vec::new() } else { self.ticks.clone() }
+    }
+
+    fn range(&self) -> Range<f64> {
+        self.inner.range()
+    }
+}
+
+/// A linear axis over `r`, ticked by [`linear_ticks`].
+pub fn ticked_linear(r: Range<f64>) -> Ticked<RangedCoordf64> {
+    let t = linear_ticks(&r);
+    Ticked::new(r, t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,41 +178,4 @@ mod tests {
         assert_eq!(log_ticks(&(0.8..1200.0)), [1.0, 10.0, 100.0, 1000.0]);
         assert_eq!(log_ticks(&(3.0..40.0)), [5.0, 10.0, 20.0]);
     }
-}
-
-/// An axis with the ticks given here (plotters never searches for its
-/// own): `inner` maps values, `ticks` are the labelled grid lines.
-pub struct Ticked<R> {
-    inner: R,
-    ticks: Vec<f64>,
-}
-
-impl<R: Ranged<ValueType = f64>> Ticked<R> {
-    /// `coord` (a range, or a range's `.log_scale()`) ticked at `ticks`.
-    pub fn new<C: AsRangedCoord<CoordDescType = R, Value = f64> + Into<R>>(coord: C, ticks: Vec<f64>) -> Ticked<R> {
-        Ticked { inner: coord.into(), ticks }
-    }
-}
-
-impl<R: Ranged<ValueType = f64>> Ranged for Ticked<R> {
-    type FormatOption = DefaultFormatting;
-    type ValueType = f64;
-
-    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
-        self.inner.map(value, limit)
-    }
-
-    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
-        if hint.weight().allow_light_points() { Vec::new() } else { self.ticks.clone() }
-    }
-
-    fn range(&self) -> Range<f64> {
-        self.inner.range()
-    }
-}
-
-/// A linear axis over `r`, ticked by [`linear_ticks`].
-pub fn ticked_linear(r: Range<f64>) -> Ticked<RangedCoordf64> {
-    let t = linear_ticks(&r);
-    Ticked::new(r, t)
 }

@@ -130,6 +130,9 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawR
     draw_legend(&legend, s)
 }
 
+/// A chart context whose x axis is `X` and y axis a ticked linear one.
+pub(super) type Axes<'a, DB, X> = ChartContext<'a, DB, Cartesian2d<X, Ticked<plotters::coord::types::RangedCoordf64>>>;
+
 /// A chart on `area` with the house style: margins, label areas, the
 /// `(x, y)` axis descriptions at `desc_size` points, ticks by [`tick`],
 /// light grey grid lines at the ticks only.
@@ -139,7 +142,7 @@ pub(super) fn axes<'a, DB, X>(
     y: Range<f64>,
     (x_desc, y_desc): (&str, &str),
     desc_size: u32,
-) -> DrawResult<ChartContext<'a, DB, Cartesian2d<X::CoordDescType, Ticked<plotters::coord::types::RangedCoordf64>>>>
+) -> DrawResult<Axes<'a, DB, X::CoordDescType>>
 where
     DB: DrawingBackend + 'a,
     X: AsRangedCoord<Value = f64>,

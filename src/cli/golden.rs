@@ -140,7 +140,7 @@ fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
         a.runs
     );
     print!("{}", r.table);
-    println!("primitives per frame (mean): {} {}", format!("{:.0}", r.report.mean.primitives), rec.info().primitive);
+    println!("primitives per frame (mean): {:.0} {}", r.report.mean.primitives, rec.info().primitive);
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())
 }

@@ -594,10 +594,8 @@ mod tests {
 
     #[test]
     fn rates_are_ratios_of_the_counters() {
-        let mut c = HwCounters::<u64>::default();
-        c.cycles = 1000;
-        c.dram_read_bytes = 6000;
-        c.dram_write_bytes = 2000;
+        let mut c =
+            HwCounters::<u64> { cycles: 1000, dram_read_bytes: 6000, dram_write_bytes: 2000, ..Default::default() };
         c.dram_bytes_by_client.tile_fill = ReadWrite { read: 6000, write: 2000 };
         c.dest_cache.accesses = 4;
         c.dest_cache.hits = 3;

@@ -67,6 +67,9 @@ pub enum ReportKind {
 }
 
 /// Any report.
+// A report is read once per file and matched at once: boxing the larger
+// variants would buy nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Report {
     /// `postwarp golden`.
