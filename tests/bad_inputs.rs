@@ -7,6 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+mod common;
+
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
@@ -60,16 +62,25 @@ fn only_regular_files_are_inputs_and_messages_name_the_path_once() {
             "adir" => "is a directory",
             _ => "symbolic link that cannot be resolved",
         };
-        // Each would block (FIFO) or be reported as missing before.
-        let e = fails(&["make-trace", "--scene", input, "--out", "o"], p, &[what]);
+        // Each would block (FIFO) or be reported as missing before. A
+        // FIFO is given with a writer that ends a blocking open (bounded:
+        // a run that opened it reads an empty file and fails the check).
+        let check = |args: &[&str], needles: &[&str]| {
+            let run = || fails(args, p, needles);
+            if input == "fifo" { common::fifo::unblocked(&p.join("fifo"), run) } else { run() }
+        };
+        let e = check(&["make-trace", "--scene", input, "--out", "o"], &[what]);
         assert_eq!(e.matches(input).count(), 1, "the path once: {e}");
-        fails(&["simulate", &t, "--out", "o", "--config", input], p, &[what, "hardware configuration"]);
-        fails(&["golden", &t, "--out", "o", "--config", input], p, &[what, "golden-model configuration"]);
-        fails(&["chart", input, "--out", "o"], p, &[what, "results CSV"]);
+        check(&["simulate", &t, "--out", "o", "--config", input], &[what, "hardware configuration"]);
+        check(&["golden", &t, "--out", "o", "--config", input], &[what, "golden-model configuration"]);
+        check(&["chart", input, "--out", "o"], &[what, "results CSV"]);
     }
     // A FIFO as the trace itself.
-    fails(&["info", "fifo"], p, &["fifo: is a FIFO (named pipe); expected the trace manifest"]);
-    fails(&["golden", "fifo", "--out", "o"], p, &["is a FIFO"]);
+    let fifo = p.join("fifo");
+    common::fifo::unblocked(&fifo, || {
+        fails(&["info", "fifo"], p, &["fifo: is a FIFO (named pipe); expected the trace manifest"])
+    });
+    common::fifo::unblocked(&fifo, || fails(&["golden", "fifo", "--out", "o"], p, &["is a FIFO"]));
     // A UTF-8 byte-order mark is named, not invisible.
     std::fs::write(p.join("bom.toml"), "\u{feff}tile_size = 8\n").unwrap();
     fails(
