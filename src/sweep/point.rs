@@ -221,11 +221,11 @@ impl Metrics {
         match &v[col] {
             Value::Null => String::new(),
             // This struct's own field, printed; not a report value read.
-            Value::Number(n) => match n.as_f64() {
-                // own field
-                Some(x) if !n.is_u64() && !n.is_i64() => format!("{x}"),
-                _ => n.to_string(),
-            },
+            Value::Number(n) if n.is_u64() || n.is_i64() => n.to_string(),
+            Value::Number(n) => {
+                let x = n.as_f64().unwrap_or(f64::NAN); // own field
+                format!("{x}")
+            }
             other => other.to_string(),
         }
     }
