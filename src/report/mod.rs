@@ -39,6 +39,7 @@ pub mod method;
 pub mod quality;
 pub mod simulate;
 pub mod table;
+pub mod timeline;
 
 pub use golden::GoldenReport;
 pub use method::MethodReport;
