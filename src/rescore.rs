@@ -32,6 +32,7 @@
 
 use crate::metrics::{MetricInput, evaluate};
 use crate::picture::srgb_to_linear;
+use crate::report::Report;
 use crate::trace::Trace;
 use anyhow::{Context, bail};
 use bitvec::vec::BitVec;
@@ -67,14 +68,20 @@ pub struct RunScore {
     pub mask_share: Option<f64>,
 }
 
+/// The trace manifest and the `method + hole_fill` label of the run in
+/// `dir`, read from its `report.json` through the typed reports.
+pub fn run_header(dir: &Path) -> anyhow::Result<(String, String)> {
+    Ok(match crate::report::load(dir)? {
+        Report::Golden(r) => (r.trace, r.method),
+        Report::Method(r) => (r.trace, format!("{} + {}", r.method, r.hole_fill)),
+        Report::Simulate(r) => (r.trace, r.method),
+    })
+}
+
 fn label(dir: &Path) -> String {
-    let fallback = || dir.file_name().map_or_else(|| dir.display().to_string(), |n| n.to_string_lossy().into());
-    let Ok(text) = std::fs::read_to_string(dir.join("report.json")) else { return fallback() };
-    let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else { return fallback() };
-    match (v["method"].as_str(), v["hole_fill"].as_str()) {
-        (Some(m), Some(f)) => format!("{m} + {f}"),
-        (Some(m), None) => m.to_string(),
-        _ => fallback(),
+    match run_header(dir) {
+        Ok((_, label)) => label,
+        Err(_) => dir.file_name().map_or_else(|| dir.display().to_string(), |n| n.to_string_lossy().into()),
     }
 }
 
@@ -168,17 +175,11 @@ pub fn sweep_region(dir: &Path, region: &str) -> anyhow::Result<String> {
     for row in rows {
         let mut row = row.clone();
         let run = dir.join("images").join(&row[c_point]);
-        let report = run.join("report.json");
-        let v: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(&report)
-                .with_context(|| format!("reading {} (run the sweep with `images = true`)", report.display()))?,
-        )
-        .with_context(|| format!("parsing {}", report.display()))?;
-        let manifest = v["trace"].as_str().ok_or_else(|| anyhow::anyhow!("{}: no `trace`", report.display()))?;
-        if !traces.contains_key(manifest) {
-            traces.insert(manifest.to_string(), Trace::open(Path::new(manifest))?);
+        let (manifest, _) = run_header(&run).context("run the sweep with `images = true`")?;
+        if !traces.contains_key(&manifest) {
+            traces.insert(manifest.clone(), Trace::open(Path::new(&manifest))?);
         }
-        let s = score_run(&traces[manifest], &run)?;
+        let s = score_run(&traces[&manifest], &run)?;
         let reg = s.regions[r];
         for (c, v) in
             metric_cols.iter().zip([reg.map(|x| x.psnr_luma_db), reg.map(|x| x.ssim_luma), reg.map(|x| x.flip_mean)])

@@ -38,11 +38,8 @@ fn trace_of(run: &std::path::Path, given: &Option<PathBuf>) -> anyhow::Result<Pa
     if let Some(t) = given {
         return Ok(t.clone());
     }
-    let p = run.join("report.json");
-    let v: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(&p).with_context(|| format!("reading {} (or give --trace)", p.display()))?,
-    )?;
-    Ok(PathBuf::from(v["trace"].as_str().ok_or_else(|| anyhow::anyhow!("{}: no `trace` key", p.display()))?))
+    let (trace, _) = crate::rescore::run_header(run).context("reading the run's report.json (or give --trace)")?;
+    Ok(PathBuf::from(trace))
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {

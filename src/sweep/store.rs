@@ -13,8 +13,19 @@
 
 use super::point::Metrics;
 use anyhow::Context;
-use serde_json::{Value, json};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The contents of a point file.
+#[derive(Serialize, Deserialize)]
+struct StoredPoint {
+    /// The point's canonical key (rule 1).
+    key: serde_json::Value,
+    /// The build that computed it (rule 3).
+    build: String,
+    /// Its results.
+    metrics: Metrics,
+}
 
 /// The file of the point with hash `hash`.
 pub fn point_file(out: &Path, hash: &str) -> PathBuf {
@@ -24,22 +35,19 @@ pub fn point_file(out: &Path, hash: &str) -> PathBuf {
 /// The stored metrics of the point `key`, if it finished earlier.
 pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
     let text = std::fs::read_to_string(point_file(out, hash)).ok()?;
-    let v: Value = serde_json::from_str(&text).ok()?;
-    let stored_key = serde_json::to_string(v.get("key")?).ok()?;
-    if stored_key != key || v.get("build").and_then(Value::as_str) != Some(super::build::build_id()) {
-        return None;
-    }
-    serde_json::from_value(v.get("metrics")?.clone()).ok()
+    let p: StoredPoint = serde_json::from_str(&text).ok()?;
+    let stored_key = serde_json::to_string(&p.key).ok()?;
+    (stored_key == key && p.build == super::build::build_id()).then_some(p.metrics)
 }
 
 /// Store a finished point.
 pub fn save(out: &Path, hash: &str, key: &str, m: &Metrics) -> anyhow::Result<()> {
-    let key: Value = serde_json::from_str(key).context("point key")?;
-    let text =
-        serde_json::to_string_pretty(&json!({"key": key, "build": super::build::build_id(), "metrics": m}))? + "\n";
+    let key = serde_json::from_str(key).context("point key")?;
+    let p = StoredPoint { key, build: super::build::build_id().to_string(), metrics: m.clone() };
+    let text = serde_json::to_string_pretty(&p)? + "\n";
     let path = point_file(out, hash);
-    crate::io_util::write_bytes_atomically(&path, text.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))
+    crate::io_util::write_bytes_atomically(&path, text.as_bytes())?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -78,7 +78,7 @@ pub const TRACE_FIELDS: &[(&str, &str, &str, &str)] = &[
     (
         "nondiffuse_scale",
         "factor",
-        "stress: the non-diffuse objects (windows, mirrors, glass) scaled about their bases",
+        "stress: mirror and glass share of the view, every window, mirror and glass object scaled about its base",
         "nondiffuse_scale",
     ),
 ];
