@@ -221,11 +221,12 @@ fn print_slurm(spec: &Spec, out: &Path, so: &SlurmOptions, o: &SlurmOutcome, sta
             let merge_job = o.merge_job.as_deref().unwrap_or("?");
             let dir = std::fs::canonicalize(out).unwrap_or_else(|_| out.to_path_buf());
             println!(
-                "not waiting: array job {array} ({} slices), merge job {merge_job} (writes results.csv when every \
-                 task has succeeded)\nfollow them: squeue -j {array},{merge_job}\nmerge later (names the slices \
+                "not waiting: array job {array} ({} of {} slices), merge job {merge_job} (writes results.csv when \
+                 every task has succeeded)\nfollow them: squeue -j {array},{merge_job}\nmerge later (names the slices \
                  that failed, if any): postwarp sweep merge {} --points-per-task {k}\nresubmit failed slices: run \
                  the same command again",
                 o.submitted.len(),
+                o.slices,
                 dir.display()
             );
         }
