@@ -26,10 +26,9 @@ const GATE: &str = "POSTWARP_SLURM";
 
 fn main() -> ExitCode {
     let args = Arguments::from_args();
-    let trials = vec![Trial::ignorable_test(
-        "slurm_sweep_equals_a_local_run_and_resubmits_a_killed_task",
-        || gated(slurm_sweep),
-    )];
+    let trials = vec![Trial::ignorable_test("slurm_sweep_equals_a_local_run_and_resubmits_a_killed_task", || {
+        gated(slurm_sweep)
+    })];
     libtest_mimic::run(&args, trials).exit_code()
 }
 
@@ -199,7 +198,12 @@ fn slurm_sweep() {
     assert!(
         err.contains("1 of 2 submitted slices failed")
             && err.contains(&format!("merge job {merge} cancelled"))
-            && err.contains(&format!("slice {running} (points {}-{last}): CANCELLED, {} missing; log {}", running * k, k - stored, log.display()))
+            && err.contains(&format!(
+                "slice {running} (points {}-{last}): CANCELLED, {} missing; log {}",
+                running * k,
+                k - stored,
+                log.display()
+            ))
             && err.contains("run the same command again to resubmit only the failed slices"),
         "{err}"
     );
@@ -214,8 +218,18 @@ fn slurm_sweep() {
     let out = ok(&slurm_args);
     let (array2, merge2) = job_ids(&out);
     jobs.0.extend([array2.clone(), merge2.clone()]);
-    assert!(out.contains(&format!("1 of 2 slices ({running}), {k} points per task, {} points to run", k - stored)), "{out}");
-    assert!(out.contains(&format!("{} stored already, {} computed by Slurm in 1 of 2 slices", n - (k - stored), k - stored)), "{out}");
+    assert!(
+        out.contains(&format!("1 of 2 slices ({running}), {k} points per task, {} points to run", k - stored)),
+        "{out}"
+    );
+    assert!(
+        out.contains(&format!(
+            "{} stored already, {} computed by Slurm in 1 of 2 slices",
+            n - (k - stored),
+            k - stored
+        )),
+        "{out}"
+    );
     let after: Vec<Vec<u8>> = other_files.iter().map(|f| std::fs::read(f).unwrap()).collect();
     assert!(after == other_bytes, "the slice that had finished was not run again");
     assert!(dir.join("slurm/logs").join(format!("merge-{merge2}.out")).is_file());

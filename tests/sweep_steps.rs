@@ -127,8 +127,10 @@ fn slices_merged_in_any_order_give_the_one_process_csv() {
     assert_eq!(without_host_time(sliced()), without_host_time(local()));
     // Same rows, same points, same chart files.
     let names = |d: &Path| {
-        let mut v: Vec<String> =
-            std::fs::read_dir(d.join("charts")).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+        let mut v: Vec<String> = std::fs::read_dir(d.join("charts"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().into_string().unwrap())
+            .collect();
         v.sort();
         v
     };
@@ -255,10 +257,8 @@ fn a_plan_is_refused_once_its_traces_or_points_no_longer_match() {
 #[test]
 fn slurm_without_a_slurm_client_says_so() {
     let d = tempfile::tempdir().unwrap();
-    let o = cmd(&["sweep", &tiny(), "--out", s(&d.path().join("out")), "--slurm"])
-        .env("PATH", d.path())
-        .output()
-        .unwrap();
+    let o =
+        cmd(&["sweep", &tiny(), "--out", s(&d.path().join("out")), "--slurm"]).env("PATH", d.path()).output().unwrap();
     assert!(!o.status.success());
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(e.contains("`sbatch` is not on PATH") && e.contains("Slurm client"), "{e}");

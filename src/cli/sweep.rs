@@ -240,8 +240,7 @@ fn plan(a: PlanArgs) -> anyhow::Result<()> {
     let opts = options(a.jobs)?;
     let start = Instant::now();
     let p = plan_file::prepare(&spec, &a.out, &pool(opts.jobs)?, opts.progress)?;
-    let stored =
-        p.points.iter().filter(|q| crate::sweep::store::load(&a.out, &q.hash, &q.key).is_some()).count();
+    let stored = p.points.iter().filter(|q| crate::sweep::store::load(&a.out, &q.hash, &q.key).is_some()).count();
     println!(
         "{}: {} points on {} traces ({} generated now), {} stored already; plan: {}; {:.1} s",
         spec.file.display(),

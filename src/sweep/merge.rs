@@ -104,7 +104,12 @@ impl std::error::Error for MissingPoints {}
 
 /// The stored metrics of every planned point, waiting up to `wait` for
 /// missing ones (rule 3); the missing points if some stay missing.
-pub fn stored_metrics(p: &Prepared, out: &Path, per_task: usize, wait: Duration) -> Result<Vec<Metrics>, MissingPoints> {
+pub fn stored_metrics(
+    p: &Prepared,
+    out: &Path,
+    per_task: usize,
+    wait: Duration,
+) -> Result<Vec<Metrics>, MissingPoints> {
     let start = Instant::now();
     let mut got: Vec<Option<Metrics>> = vec![None; p.points.len()];
     loop {
@@ -112,7 +117,7 @@ pub fn stored_metrics(p: &Prepared, out: &Path, per_task: usize, wait: Duration)
         for (i, q) in p.points.iter().enumerate() {
             if got[i].is_none() {
                 match store::check(out, &q.hash, &q.key) {
-                    store::Stored::Finished(m) => got[i] = Some(m),
+                    store::Stored::Finished(m) => got[i] = Some(*m),
                     other => missing.push((i, other.why_missing())),
                 }
             }

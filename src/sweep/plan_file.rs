@@ -127,11 +127,9 @@ pub fn prepare(spec: &Spec, out: &Path, pool: &rayon::ThreadPool, progress: bool
         .traces
         .iter()
         .filter(|v| match &v.source {
-            VariantSource::Generated { given, file, spec: ts } => {
-                trace_set::generated_hash(given, file.as_deref(), ts)
-                    .map(|h| trace_set::needs_render(&out.join("traces").join(h)))
-                    .unwrap_or(true)
-            }
+            VariantSource::Generated { given, file, spec: ts } => trace_set::generated_hash(given, file.as_deref(), ts)
+                .map(|h| trace_set::needs_render(&out.join("traces").join(h)))
+                .unwrap_or(true),
             VariantSource::Existing { .. } => false,
         })
         .count();
@@ -193,8 +191,8 @@ struct PlanFile {
 
 /// Write `out/plan.json` (module rule 1).
 pub fn write(p: &Prepared, out: &Path) -> anyhow::Result<()> {
-    let file = std::path::absolute(&p.spec.file)
-        .with_context(|| format!("the absolute path of {}", p.spec.file.display()))?;
+    let file =
+        std::path::absolute(&p.spec.file).with_context(|| format!("the absolute path of {}", p.spec.file.display()))?;
     let f = PlanFile {
         format: FORMAT,
         build: super::build::build_id().to_string(),
@@ -226,7 +224,8 @@ pub fn write(p: &Prepared, out: &Path) -> anyhow::Result<()> {
     };
     let path = out.join(PLAN_FILE);
     let text = serde_json::to_string_pretty(&f).context("plan.json")? + "\n";
-    crate::io_util::write_bytes_atomically(&path, text.as_bytes()).with_context(|| format!("writing {}", path.display()))
+    crate::io_util::write_bytes_atomically(&path, text.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// Read `out/plan.json` and check it against its specification (module
@@ -273,7 +272,10 @@ pub fn load(out: &Path) -> anyhow::Result<Prepared> {
     let mut traces = Vec::with_capacity(f.traces.len());
     for (v, t) in plan.traces.iter().zip(&f.traces) {
         if v.label != t.label {
-            return Err(mismatch(format!("trace `{}` planned where the specification now gives `{}`", t.label, v.label)));
+            return Err(mismatch(format!(
+                "trace `{}` planned where the specification now gives `{}`",
+                t.label, v.label
+            )));
         }
         let dir = match &v.source {
             VariantSource::Existing { path, .. } => path.clone(),

@@ -98,7 +98,8 @@ pub fn run_points(
     let todo: Vec<usize> =
         indices.iter().zip(&status).filter(|(_, s)| s.why_missing() != "").map(|(&i, _)| i).collect();
     let stale = status.iter().filter(|s| !matches!(s, store::Stored::Finished(_) | store::Stored::Absent)).count();
-    let bar = if progress { crate::progress::bar(todo.len() as u64, "sweep") } else { indicatif::ProgressBar::hidden() };
+    let bar =
+        if progress { crate::progress::bar(todo.len() as u64, "sweep") } else { indicatif::ProgressBar::hidden() };
     let failures: Vec<String> = pool.install(|| {
         todo.par_iter()
             .filter_map(|&i| {

@@ -25,7 +25,7 @@ pub fn point_file(out: &Path, hash: &str) -> PathBuf {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Stored {
     /// The finished point, stored by this build under its key.
-    Finished(Metrics),
+    Finished(Box<Metrics>),
     /// No file.
     Absent,
     /// A file that is not a point file: torn, truncated or edited.
@@ -40,7 +40,7 @@ impl Stored {
     /// The metrics, if the point is finished.
     pub fn metrics(self) -> Option<Metrics> {
         match self {
-            Stored::Finished(m) => Some(m),
+            Stored::Finished(m) => Some(*m),
             _ => None,
         }
     }
@@ -73,7 +73,7 @@ pub fn check(out: &Path, hash: &str, key: &str) -> Stored {
     if v.get("build").and_then(Value::as_str) != Some(super::build::build_id()) {
         return Stored::OtherBuild;
     }
-    Stored::Finished(metrics)
+    Stored::Finished(Box::new(metrics))
 }
 
 /// The stored metrics of the point `key`, if it finished earlier.

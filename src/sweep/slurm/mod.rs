@@ -12,7 +12,8 @@
 //!    the merge runs here.
 //! 2. `DIR`, the `postwarp` executable, the specification and its existing
 //!    traces must be on a file system every node mounts at the same path.
-//! 3. Waiting polls `squeue --states=all` (no accounting needed). Success
+//! 3. Waiting polls `squeue --states=all` (no accounting needed), every
+//!    [`poll_interval`]. Success
 //!    is decided by the files: every planned point stored, and a
 //!    `results.csv` equal to the merge of the stored points. A slice whose
 //!    points are missing when the array has ended has failed: it is named
@@ -142,7 +143,8 @@ pub fn run(spec: &Spec, out: &Path, o: &SlurmOptions) -> anyhow::Result<SlurmOut
     std::fs::create_dir_all(&logs).with_context(|| format!("creating {}", logs.display()))?;
     let array_sh = out.join("slurm").join("array.sh");
     let merge_sh = out.join("slurm").join("merge.sh");
-    for (path, text) in [(&array_sh, scripts::array_script(&exe, &dir, k)), (&merge_sh, scripts::merge_script(&exe, &dir, k))]
+    for (path, text) in
+        [(&array_sh, scripts::array_script(&exe, &dir, k)), (&merge_sh, scripts::merge_script(&exe, &dir, k))]
     {
         write_script(path, &text)?;
     }
@@ -197,6 +199,17 @@ fn write_script(path: &Path, text: &str) -> anyhow::Result<()> {
 /// (a shared file system's attribute cache).
 const SETTLE: Duration = Duration::from_secs(60);
 
+/// How long `squeue` may keep failing (a controller restarting) before the
+/// wait gives up; the jobs go on regardless.
+const LOST: Duration = Duration::from_secs(300);
+
+/// Time between two `squeue` polls after waiting `waited`: a twentieth of
+/// it, from 0.2 s to 30 s, so the end of a run is seen within 5 % of its
+/// time (or 30 s) without polling a busy controller every second for hours.
+pub fn poll_interval(waited: Duration) -> Duration {
+    (waited / 20).clamp(Duration::from_millis(200), Duration::from_secs(30))
+}
+
 /// Wait for the array and the merge job (rule 3).
 fn wait(
     p: &Prepared,
@@ -221,26 +234,27 @@ fn wait(
     let mut tasks: BTreeMap<usize, queue::JobState> = BTreeMap::new();
     let mut merge_state: Option<queue::JobState> = None;
     let mut array_ended = false;
-    let mut poll = Duration::from_millis(200);
-    let mut failed_polls = 0;
+    let waiting = Instant::now();
+    let mut failing_since: Option<Instant> = None;
     loop {
         let states = match queue::states(&[array, merge_job]) {
             Ok(s) => {
-                failed_polls = 0;
+                failing_since = None;
                 s
             }
             Err(e) => {
-                failed_polls += 1;
-                if failed_polls >= 30 {
+                let since = *failing_since.get_or_insert_with(Instant::now);
+                if since.elapsed() >= LOST {
                     bar.finish_and_clear();
                     return Err(e.context(format!(
-                        "lost contact with Slurm while waiting for array job {array} and merge job {merge_job}; \
-                         they may still run: follow them with `squeue -j {array},{merge_job}`, then \
+                        "no answer from Slurm for {} s while waiting for array job {array} and merge job \
+                         {merge_job}; they may still run: follow them with `squeue -j {array},{merge_job}`, then \
                          `postwarp sweep merge {} --points-per-task {k}`",
+                        LOST.as_secs(),
                         out.display()
                     )));
                 }
-                std::thread::sleep(Duration::from_secs(1));
+                std::thread::sleep(Duration::from_secs(2));
                 continue;
             }
         };
@@ -272,8 +286,7 @@ fn wait(
         if array_ended && !merge_active {
             break;
         }
-        std::thread::sleep(poll);
-        poll = (poll * 3 / 2).min(Duration::from_secs(2));
+        std::thread::sleep(poll_interval(waiting.elapsed()));
     }
     bar.finish_and_clear();
     // The merge job's results.csv must be the merge of the stored points.
@@ -301,7 +314,9 @@ fn wait(
         std::thread::sleep(Duration::from_secs(1));
     }
     let mut charts: Vec<PathBuf> = std::fs::read_dir(out.join("charts"))
-        .map(|d| d.filter_map(Result::ok).map(|e| e.path()).filter(|p| !p.to_string_lossy().ends_with(".tmp")).collect())
+        .map(|d| {
+            d.filter_map(Result::ok).map(|e| e.path()).filter(|p| !p.to_string_lossy().ends_with(".tmp")).collect()
+        })
         .unwrap_or_default();
     charts.sort();
     Ok(MergeOutcome { points: p.points.len(), results, charts })
