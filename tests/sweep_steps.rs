@@ -265,3 +265,29 @@ fn slurm_without_a_slurm_client_says_so() {
     let e = fails(&["sweep", &tiny(), "--out", s(d.path()), "--slurm", "--sbatch-arg=--output=x"]);
     assert!(e.contains("--sbatch-arg --output=x: not allowed, postwarp names the logs"), "{e}");
 }
+
+#[test]
+fn docs_describe_every_flag_of_the_steps_and_the_slurm_path() {
+    use clap::CommandFactory;
+    let doc = std::fs::read_to_string(root().join("docs/sweep.md")).unwrap();
+    let cli = postwarp::cli::Cli::command();
+    let sweep = cli.find_subcommand("sweep").expect("postwarp sweep");
+    let mut checked = 0;
+    let steps = ["plan", "run", "merge"].map(|n| sweep.find_subcommand(n).unwrap_or_else(|| panic!("sweep {n}")));
+    for c in std::iter::once(sweep).chain(steps) {
+        for a in c.get_arguments() {
+            let Some(long) = a.get_long() else { continue };
+            if ["help", "version", "out"].contains(&long) {
+                continue;
+            }
+            assert!(a.get_help().is_some(), "--{long} of `sweep {}` has a description", c.get_name());
+            assert!(
+                doc.contains(&format!("| `--{long}")),
+                "docs/sweep.md has a row for --{long} (`sweep {}`)",
+                c.get_name()
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked >= 12, "{checked} flags");
+}

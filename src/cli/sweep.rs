@@ -177,7 +177,8 @@ fn whole(w: Whole) -> anyhow::Result<()> {
     );
     if o.stale > 0 {
         println!(
-            "{} stored points were made by another build of postwarp (or under another key) and were run again",
+            "{} stored points were made by another build of postwarp (or under another key, or unreadable) and were \
+             run again",
             o.stale
         );
     }
