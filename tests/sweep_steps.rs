@@ -89,10 +89,17 @@ fn sliced() -> &'static Path {
         let slices = n.div_ceil(5);
         assert_eq!(slices, 7);
         // Two slices at once, in two processes.
-        let a = cmd(&["sweep", "run", dir, "--index", "6", "--points-per-task", K, "--jobs", "1"]).spawn().unwrap();
-        let b = cmd(&["sweep", "run", dir, "--index", "2", "--points-per-task", K, "--jobs", "1"]).spawn().unwrap();
-        for mut c in [a, b] {
-            assert!(c.wait().unwrap().success());
+        let spawn = |i: &str| {
+            cmd(&["sweep", "run", dir, "--index", i, "--points-per-task", K, "--jobs", "1"])
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        };
+        let (a, b) = (spawn("6"), spawn("2"));
+        for c in [a, b] {
+            let o = c.wait_with_output().unwrap();
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         }
         for i in [4, 0, 5, 3] {
             let out = ok(&["sweep", "run", dir, "--index", &i.to_string(), "--points-per-task", K, "--jobs", "2"]);

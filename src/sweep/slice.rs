@@ -95,8 +95,12 @@ pub fn run_points(
 ) -> PointsOutcome {
     let status: Vec<store::Stored> =
         indices.iter().map(|&i| store::check(out, &p.points[i].hash, &p.points[i].key)).collect();
-    let todo: Vec<usize> =
-        indices.iter().zip(&status).filter(|(_, s)| s.why_missing() != "").map(|(&i, _)| i).collect();
+    let todo: Vec<usize> = indices
+        .iter()
+        .zip(&status)
+        .filter(|(_, s)| !matches!(s, store::Stored::Finished(_)))
+        .map(|(&i, _)| i)
+        .collect();
     let stale = status.iter().filter(|s| !matches!(s, store::Stored::Finished(_) | store::Stored::Absent)).count();
     let bar =
         if progress { crate::progress::bar(todo.len() as u64, "sweep") } else { indicatif::ProgressBar::hidden() };

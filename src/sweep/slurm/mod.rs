@@ -96,7 +96,8 @@ fn slices_missing(p: &Prepared, out: &Path, k: usize) -> (Vec<usize>, usize) {
     (slices, stored)
 }
 
-/// Run `spec` into `out` through Slurm (module rules).
+/// Run `spec` into `out` through Slurm (module rules). Prints one line to
+/// stdout once the jobs are submitted (their ids), before waiting.
 pub fn run(spec: &Spec, out: &Path, o: &SlurmOptions) -> anyhow::Result<SlurmOutcome> {
     anyhow::ensure!(o.points_per_task >= 1, "--points-per-task must be at least 1");
     anyhow::ensure!(o.max_parallel != Some(0), "--max-parallel must be at least 1");
@@ -353,4 +354,53 @@ fn failure_report(
         }
     }
     s + "\nthe other slices' points are stored: run the same command again to resubmit only the failed slices"
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polls_start_fast_and_slow_down_to_a_twentieth_of_the_wait() {
+        assert_eq!(poll_interval(Duration::ZERO), Duration::from_millis(200));
+        assert_eq!(poll_interval(Duration::from_secs(60)), Duration::from_secs(3));
+        assert_eq!(poll_interval(Duration::from_secs(3 * 3600)), Duration::from_secs(30));
+    }
+
+    #[test]
+    fn the_failure_report_names_each_slice_its_state_and_log() {
+        let dir = tempfile::tempdir().unwrap();
+        let logs = dir.path().join("slurm").join(scripts::LOGS);
+        std::fs::create_dir_all(&logs).unwrap();
+        std::fs::write(logs.join("7_1.out"), "slice 1 ...\nerror: slice 1: 1 of 4 points failed\n\n").unwrap();
+        let missing = merge::MissingPoints {
+            out: dir.path().to_path_buf(),
+            total: 10,
+            missing: vec![(5, "absent"), (9, "unreadable")],
+            per_task: 4,
+        };
+        let mut tasks = BTreeMap::new();
+        let state = |t, st: &str, why: &str| queue::JobState {
+            job: "7".into(),
+            task: Some(t),
+            state: st.into(),
+            reason: why.into(),
+        };
+        tasks.insert(1, state(1, "FAILED", "NonZeroExitCode"));
+        tasks.insert(2, state(2, "TIMEOUT", "None"));
+        let r = failure_report(&missing, &tasks, "7", "8", 3);
+        assert!(
+            r.starts_with("2 of 3 submitted slices failed (array job 7; merge job 8 cancelled): 2 of 10 points"),
+            "{r}"
+        );
+        let log1 = logs.join("7_1.out");
+        assert!(
+            r.contains(&format!(
+                "slice 1 (points 4-7): FAILED (NonZeroExitCode), 1 missing; log {}: error: slice 1: 1 of 4 points failed",
+                log1.display()
+            )),
+            "{r}"
+        );
+        assert!(r.contains("slice 2 (points 8-9): TIMEOUT, 1 missing; log"), "{r}");
+    }
 }
