@@ -16,10 +16,13 @@
 //! trace and finds nothing to do).
 //!
 //! Run: `cargo bench --bench sweep_slurm` on a host that can submit to a
-//! Slurm cluster whose nodes share this file system (e.g. the single-node
-//! one of `.ci/slurm`: `.ci/slurm start /tmp/slurm && export
-//! SLURM_CONF=/tmp/slurm/slurm.conf`). Without `sbatch` it says so and
-//! measures nothing. `REPS` is 3; set `POSTWARP_BENCH_REPS` to change it.
+//! Slurm cluster (e.g. the single-node one of `.ci/slurm`: `.ci/slurm start
+//! /tmp/slurm && export SLURM_CONF=/tmp/slurm/slurm.conf`). The sweeps go
+//! to a temporary directory under `POSTWARP_BENCH_DIR` (default: the
+//! system's temporary directory), which on a real cluster must be on the
+//! file system the nodes share, as must this checkout (the `postwarp`
+//! executable). Without `sbatch` it says so and measures nothing. `REPS` is
+//! 3; set `POSTWARP_BENCH_REPS` to change it.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -52,7 +55,10 @@ fn main() {
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let spec = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("specs/ci-tiny.toml");
     let spec = spec.to_str().unwrap();
-    let tmp = tempfile::tempdir().unwrap();
+    let tmp = match std::env::var_os("POSTWARP_BENCH_DIR") {
+        Some(d) => tempfile::tempdir_in(d).expect("a temporary directory in POSTWARP_BENCH_DIR"),
+        None => tempfile::tempdir().unwrap(),
+    };
     let mut run_no = 0;
     let mut fresh = |label: &str| -> PathBuf {
         run_no += 1;
