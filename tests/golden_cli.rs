@@ -97,8 +97,20 @@ fn printed_table_and_report_agree() {
     }
 }
 
-/// The golden images of every bundled trace, byte for byte. Set
-/// `UPDATE_GOLDEN=1` to rewrite `tests/data/golden/` after an intended change.
+/// The frame names (`frame-NNNN.png`) in `dir`, sorted.
+fn frame_pngs(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .map(|rd| rd.map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect())
+        .unwrap_or_default();
+    names.retain(|n| n.starts_with("frame-") && n.ends_with(".png"));
+    names.sort();
+    names
+}
+
+/// The golden images of every bundled trace, compared on decoded pixels
+/// (so a PNG encoder change does not matter), with the same set of frames:
+/// a missing or an extra frame fails. Set `UPDATE_GOLDEN=1` to rewrite
+/// `tests/data/golden/` after an intended change.
 #[test]
 fn golden_images_match_the_committed_ones() {
     let update = std::env::var_os("UPDATE_GOLDEN").is_some();
@@ -107,25 +119,26 @@ fn golden_images_match_the_committed_ones() {
         let out = dir.path().join(trace);
         golden(trace, &out, &[]);
         let want_dir = root().join("tests/data/golden").join(trace);
-        let mut n = 0;
-        for e in std::fs::read_dir(&out).unwrap() {
-            let p = e.unwrap().path();
-            let name = p.file_name().unwrap().to_string_lossy().to_string();
-            if !(name.starts_with("frame-") && name.ends_with(".png")) {
-                continue;
+        let got = frame_pngs(&out);
+        assert!(!got.is_empty(), "{trace}: no frames");
+        if update {
+            std::fs::create_dir_all(&want_dir).unwrap();
+            for stale in frame_pngs(&want_dir) {
+                std::fs::remove_file(want_dir.join(stale)).unwrap();
             }
-            let want = want_dir.join(&name);
-            if update {
-                std::fs::create_dir_all(&want_dir).unwrap();
-                std::fs::copy(&p, &want).unwrap();
+            for name in &got {
+                std::fs::copy(out.join(name), want_dir.join(name)).unwrap();
             }
-            let got = std::fs::read(&p).unwrap();
-            let expected = std::fs::read(&want)
-                .unwrap_or_else(|_| panic!("missing {} (UPDATE_GOLDEN=1 writes it)", want.display()));
-            assert!(got == expected, "{trace}/{name} differs from {}", want.display());
-            n += 1;
         }
-        assert!(n > 0, "{trace}: no frames");
+        let want = frame_pngs(&want_dir);
+        assert_eq!(got, want, "{trace}: frames written differ from {} (UPDATE_GOLDEN=1 rewrites)", want_dir.display());
+        for name in &got {
+            let a = image::open(out.join(name)).unwrap().to_rgb8();
+            let b = image::open(want_dir.join(name)).unwrap().to_rgb8();
+            assert_eq!(a.dimensions(), b.dimensions(), "{trace}/{name}: size differs");
+            let differing = a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count();
+            assert!(differing == 0, "{trace}/{name}: {differing} pixels differ from {}", want_dir.join(name).display());
+        }
     }
 }
 

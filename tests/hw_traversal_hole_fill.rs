@@ -12,7 +12,7 @@ use postwarp::golden::traversal as golden;
 use postwarp::trace::Trace;
 use postwarp_rtl::DestFrame;
 use postwarp_rtl::camera::Epipole;
-use postwarp_rtl::traversal::{Line, Major, Rank, forward_lines, reverse_lines};
+use postwarp_rtl::traversal::{Line, Major, OrderKey, forward_lines, reverse_lines};
 use postwarp_rtl::units::hole_fill::{HoleFillCounters, HoleFillParams, HoleFillUnit};
 use proptest::prelude::*;
 
@@ -76,10 +76,10 @@ fn check_order(w: u32, h: u32, e: &Epipole) {
     }
 
     // Ranks: strictly increasing along the order, so sorting gives it.
-    let r = Rank::new(w, h, e);
-    assert!(want.windows(2).all(|p| r.rank(p[0].0, p[0].1) < r.rank(p[1].0, p[1].1)), "{ctx}: ranks not increasing");
+    let r = OrderKey::new(w, h, e);
+    assert!(want.windows(2).all(|p| r.key(p[0].0, p[0].1) < r.key(p[1].0, p[1].1)), "{ctx}: ranks not increasing");
     let mut all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
-    all.sort_by_key(|&(x, y)| r.rank(x, y));
+    all.sort_by_key(|&(x, y)| r.key(x, y));
     assert_eq!(all, want, "{ctx}: rank sort");
 }
 

@@ -22,8 +22,8 @@ use postwarp::golden::kernel_setup as gk;
 use postwarp::golden::raster::rect;
 use postwarp::golden::transform::{Transformed, WarpContext};
 use postwarp_rtl::units::kernel_setup as hk;
-use postwarp_rtl::units::raster::stamp;
-use postwarp_rtl::units::transform::{TransformUnit, Warped};
+use postwarp_rtl::units::raster as hw_raster;
+use postwarp_rtl::units::transform::{self as hw_transform, TransformUnit};
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage, WarpSetup};
 use proptest::prelude::*;
 use std::collections::BTreeSet;
@@ -97,7 +97,7 @@ fn rasterize(src: &Camera, dst: &Camera, img: &SampleImage, threshold: f64) -> C
     let iz = |i: usize| 1.0 / img.z[i] as f64;
     let gw: Vec<Option<Transformed>> =
         (0..img.len()).map(|i| ctx.transform((i as u32 % N) as f64, (i as u32 / N) as f64, iz(i))).collect();
-    let hw: Vec<Option<Warped>> =
+    let hw: Vec<Option<hw_transform::Transformed>> =
         (0..img.len()).map(|i| tu.warp((i as u32 % N) as f64, (i as u32 / N) as f64, iz(i))).collect();
     let size = (N, N);
     let mut cov = Coverage { golden: BTreeSet::new(), hardware: BTreeSet::new(), over_limit: Vec::new() };
@@ -129,7 +129,7 @@ fn rasterize(src: &Camera, dst: &Camera, img: &SampleImage, threshold: f64) -> C
             let groups = [hgroup(xi - 1, yi - 1), hgroup(xi, yi - 1), hgroup(xi - 1, yi), hgroup(xi, yi)];
             let (c, _) = hk::corners(&tu, &w, x, y, iz(i), img.inv_z_slopes[i], groups);
             let (x0, x1, y0, y1) = hk::bounding_box(&c);
-            stamp(x0, x1, y0, y1, (w.pos.x, w.pos.y), LIMIT, size).for_each(|u, v| {
+            hw_raster::rect(x0, x1, y0, y1, (w.pos.x, w.pos.y), LIMIT, size).for_each(|u, v| {
                 cov.hardware.insert((u, v));
             });
         }

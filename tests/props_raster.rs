@@ -1,16 +1,16 @@
 //! Property suite: the rasterizer (`docs/invariants.md`, "Rasterizer").
 //!
 //! The golden rasterizer (`postwarp::golden::raster::rect`) and the
-//! hardware stamp (`postwarp_rtl::units::raster::stamp`) are checked
+//! hardware stamp (`postwarp_rtl::units::raster::rect`) are checked
 //! against a brute-force count of the sample centres inside the half-open
 //! box, and against each other, on random boxes: continuous, on the
 //! sample grid (where half-openness decides), empty, inverted and huge.
 
 use postwarp::golden::config::OverLimit;
-use postwarp::golden::raster::rect;
+use postwarp::golden::raster;
 use postwarp_rtl::DestFrame;
 use postwarp_rtl::units::composite::{Candidate, Verdict, composite};
-use postwarp_rtl::units::raster::stamp;
+use postwarp_rtl::units::raster::rect;
 use proptest::prelude::*;
 use std::collections::BTreeSet;
 
@@ -71,7 +71,7 @@ proptest! {
     /// the centres inside the half-open box and inside the image.
     #[test]
     fn covers_exactly_the_centres_inside_the_half_open_box((b, c, limit, size) in case()) {
-        let r = rect(b.0, b.1, b.2, b.3, c, limit, OverLimit::Allow, size);
+        let r = raster::rect(b.0, b.1, b.2, b.3, c, limit, OverLimit::Allow, size);
         let mut got = BTreeSet::new();
         r.for_each(|x, y| { got.insert((x, y)); });
         prop_assert_eq!(&got, &inside(b, size));
@@ -85,7 +85,7 @@ proptest! {
     /// the image clips it) holding the centre nearest the warped sample.
     #[test]
     fn the_stamp_draws_at_most_limit_squared_centres_of_the_box((b, c, limit, size) in case()) {
-        let s = stamp(b.0, b.1, b.2, b.3, c, limit, size);
+        let s = rect(b.0, b.1, b.2, b.3, c, limit, size);
         let mut got = BTreeSet::new();
         s.for_each(|x, y| { got.insert((x, y)); });
         let all = inside(b, size);
@@ -97,7 +97,7 @@ proptest! {
         // Without the image clip, the window per axis.
         let big = (u32::MAX / 4, u32::MAX / 4);
         let shift = 1000.0; // move the box into positive coordinates
-        let u = stamp(b.0 + shift, b.1 + shift, b.2 + shift, b.3 + shift, (c.0 + shift, c.1 + shift), limit, big);
+        let u = rect(b.0 + shift, b.1 + shift, b.2 + shift, b.3 + shift, (c.0 + shift, c.1 + shift), limit, big);
         let (nx, ny) = u.drawn();
         prop_assert_eq!(nx, if u.is_empty() { 0 } else { s.size.0.min(limit) });
         prop_assert_eq!(ny, if u.is_empty() { 0 } else { s.size.1.min(limit) });
@@ -115,8 +115,8 @@ proptest! {
     /// every rectangle: the same centres, size and over-limit flag.
     #[test]
     fn golden_and_hardware_rasterizers_agree((b, c, limit, size) in case()) {
-        let g = rect(b.0, b.1, b.2, b.3, c, limit, OverLimit::Clip, size);
-        let h = stamp(b.0, b.1, b.2, b.3, c, limit, size);
+        let g = raster::rect(b.0, b.1, b.2, b.3, c, limit, OverLimit::Clip, size);
+        let h = rect(b.0, b.1, b.2, b.3, c, limit, size);
         prop_assert_eq!(g.size, h.size);
         prop_assert_eq!(g.over_limit, h.over_limit);
         let (mut a, mut z) = (Vec::new(), Vec::new());
@@ -135,7 +135,7 @@ proptest! {
         inv_z in 0.01f32..10.0,
         slopes in prop::array::uniform2(-0.1f32..0.1),
     ) {
-        let s = stamp(b.0, b.1, b.2, b.3, c, limit, size);
+        let s = rect(b.0, b.1, b.2, b.3, c, limit, size);
         let mut f = DestFrame::new(size.0, size.1);
         let cand = Candidate { colour, inv_z, slopes, source: 0, fill_colour: colour };
         let mut covered = BTreeSet::new();

@@ -24,6 +24,7 @@
 
 mod common;
 
+use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::units::tile_cache::{Lookup, TileCache, TileCacheCounters, TileState};
 use proptest::prelude::*;
 use std::collections::BTreeMap;
@@ -192,13 +193,13 @@ impl Harness {
         if self.m.state[t as usize] == TileState::Released {
             return Ok(false); // the schedule never does this (see `released_tiles_panic`)
         }
-        let got = if !direct && self.cache.hit(t, now, counted) {
+        let got = if !direct && self.cache.hit(t, Cycle(now), counted) {
             (Lookup::Hit, None)
         } else {
             if !direct {
                 prop_assert_ne!(self.m.state[t as usize], TileState::Resident, "hit() missed a resident tile {}", t);
             }
-            self.cache.access(t, now, counted, pinned)
+            self.cache.access(t, Cycle(now), counted, pinned)
         };
         let want = self.m.access(t, counted, pinned);
         prop_assert_eq!(got, want, "access to tile {} at {} pinned {:?}", t, now, pinned);
@@ -224,7 +225,7 @@ impl Harness {
             return Ok(());
         }
         let (t, kind) = self.m.loading.remove(which % self.m.loading.len());
-        self.cache.loaded(t, self.m.now);
+        self.cache.loaded(t, Cycle(self.m.now));
         self.m.state[t as usize] = TileState::Resident;
         self.m.last_use.insert(t, self.m.now);
         let data = match kind {
@@ -375,7 +376,7 @@ proptest! {
         let mut hits = 0;
         for (now, &(t, arrive)) in accesses.iter().enumerate() {
             let t = t % tiles;
-            let (l, v) = c.access(t, now as u64, true, &[]);
+            let (l, v) = c.access(t, Cycle(now as u64), true, &[]);
             prop_assert_eq!(v, None);
             match l {
                 Lookup::Compulsory => prop_assert!(used.insert(t), "second compulsory miss on {}", t),
@@ -384,7 +385,7 @@ proptest! {
                 Lookup::Capacity | Lookup::Full => prop_assert!(false, "{:?} with room for every tile", l),
             }
             if arrive && c.state(t) == TileState::Loading {
-                c.loaded(t, now as u64);
+                c.loaded(t, Cycle(now as u64));
             }
         }
         let k = &c.counters;
@@ -398,8 +399,8 @@ proptest! {
 #[should_panic(expected = "used after its release")]
 fn released_tiles_panic() {
     let mut c = TileCache::new(2, 2);
-    assert_eq!(c.access(1, 0, true, &[]).0, Lookup::Compulsory);
-    c.loaded(1, 0);
+    assert_eq!(c.access(1, Cycle(0), true, &[]).0, Lookup::Compulsory);
+    c.loaded(1, Cycle(0));
     c.release(1);
-    let _ = c.access(1, 1, true, &[]);
+    let _ = c.access(1, Cycle(1), true, &[]);
 }

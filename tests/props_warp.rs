@@ -4,7 +4,7 @@
 //! - Warping a sample to a random derived camera lands where projecting its
 //!   3D point lands, and warping it back returns it.
 //! - The forward eight-sheet order (golden `traversal::order` and the
-//!   hardware sequencer's `Rank`) never visits a sample after one that may
+//!   hardware sequencer's `OrderKey`) never visits a sample after one that may
 //!   occlude it: on every epipolar half-line, the sample nearer the other
 //!   camera comes later (exactly collinear pairs, all pairs of the image),
 //!   and inside a sheet every 8-neighbour visited later lies along `D`.
@@ -15,7 +15,7 @@ use glam::{DQuat, DVec2, DVec3};
 use postwarp::golden::transform::WarpContext;
 use postwarp::golden::traversal as golden;
 use postwarp_rtl::camera::{Epipole, EpipoleKind};
-use postwarp_rtl::traversal::Rank;
+use postwarp_rtl::traversal::OrderKey;
 use postwarp_rtl::units::transform::TransformUnit;
 use postwarp_rtl::{Camera, Intrinsics, Pose, WarpSetup};
 use proptest::prelude::*;
@@ -101,8 +101,8 @@ fn ranks(w: u32, h: u32, e: &Epipole) -> (Vec<u64>, Vec<u64>) {
     for (k, (x, y)) in golden::order(w, h, e).into_iter().enumerate() {
         g[(y * w + x) as usize] = k as u64;
     }
-    let r = Rank::new(w, h, e);
-    let mut by_rank: Vec<(u64, u32)> = (0..w * h).map(|i| (r.rank(i % w, i / w), i)).collect();
+    let r = OrderKey::new(w, h, e);
+    let mut by_rank: Vec<(u64, u32)> = (0..w * h).map(|i| (r.key(i % w, i / w), i)).collect();
     by_rank.sort_unstable();
     let mut hw = vec![u64::MAX; (w * h) as usize];
     for (k, (_, i)) in by_rank.into_iter().enumerate() {

@@ -4,8 +4,8 @@
 //! number of slots (backpressure) and a fixed transit time (pipeline
 //! registers on the path).
 //!
-//! API ([`Fifo`]): `new(capacity, latency)`; producer side `can_push(now)`,
-//! `push(now, item) -> Result<(), T>`; consumer side `can_pop(now)`,
+//! API ([`Fifo`]): `new(capacity, latency)`; producer side `offer(now)`,
+//! `push(now, item) -> Result<(), T>`, and `can_push(now)` for observers; consumer side `can_pop(now)`,
 //! `peek(now)`, `pop(now)`; `len`, `is_empty`, `capacity`, `latency`; counters
 //! in [`FifoCounters`] (`counters()`).
 //!
@@ -33,8 +33,16 @@
 //! refused. It is counted once per cycle however many pushes that cycle
 //! refused (several producers, or retries); `can_push` is a side-effect-free
 //! query and counts nothing, so a producer that only asks and does not try is
-//! not counted. Producers should therefore call `push` (and keep the returned
-//! item) rather than skip the attempt when `can_push` is false.
+//! not counted.
+//!
+//! The producer rule: a producer either calls `push` and keeps a refused
+//! item for a later cycle, or — when it must not consume its own input
+//! unless the FIFO takes the result (a unit with no output register, which
+//! accepts an input only when its output is ready) — first calls `offer`,
+//! which answers like `can_push` but counts a refusal as a refused push.
+//! A `push` in the same cycle after an accepted `offer` cannot be refused;
+//! the producer treats a refusal there as a bug. `can_push` is for
+//! observers (tests, reports), never for a producer's decision.
 //!
 //! Throughput/latency: up to `capacity` items in flight; each takes exactly
 //! `latency` cycles from push to visibility, plus any time it waits at the
@@ -42,8 +50,6 @@
 //!
 //! Not modelled: storage cost (area), read/write port conflicts, items of
 //! different sizes, credit-return delay (a freed slot is reusable at once).
-
-use std::collections::VecDeque;
 
 use crate::clock::Cycle;
 
@@ -71,7 +77,7 @@ pub struct Fifo<T> {
     capacity: usize,
     latency: u64,
     /// Items with the cycle at which each becomes visible, oldest first.
-    items: VecDeque<(Cycle, T)>,
+    items: Ring<(Cycle, T)>,
     counters: FifoCounters,
     /// The cycle of the last refused push, so a full cycle counts once.
     last_refused: Option<Cycle>,
@@ -79,7 +85,7 @@ pub struct Fifo<T> {
     last_now: Cycle,
 }
 
-impl<T> Fifo<T> {
+impl<T: Copy> Fifo<T> {
     /// A FIFO of `capacity` slots (items, at least 1) and `latency` cycles
     /// from push to visibility (0 allowed: visible in the same cycle).
     ///
@@ -90,7 +96,7 @@ impl<T> Fifo<T> {
         Fifo {
             capacity,
             latency,
-            items: VecDeque::with_capacity(capacity),
+            items: Ring::new(capacity),
             counters: FifoCounters::default(),
             last_refused: None,
             last_now: Cycle::ZERO,
@@ -108,11 +114,13 @@ impl<T> Fifo<T> {
     }
 
     /// Items held, visible or in transit.
+    #[inline]
     pub fn len(&self) -> usize {
         self.items.len()
     }
 
     /// True if no item is held (visible or in transit).
+    #[inline]
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
@@ -130,21 +138,41 @@ impl<T> Fifo<T> {
     }
 
     /// True if a `push` at `now` would be accepted. Counts nothing.
+    #[inline]
     pub fn can_push(&self, now: Cycle) -> bool {
         self.check_time(now);
         self.items.len() < self.capacity
     }
 
+    /// True if a `push` at `now` would be accepted; false counts as a
+    /// refused push (and the cycle as a full cycle), as a refused `push`
+    /// does (module doc, the producer rule).
+    #[inline]
+    pub fn offer(&mut self, now: Cycle) -> bool {
+        self.observe(now);
+        if self.items.len() < self.capacity {
+            return true;
+        }
+        self.refuse(now);
+        false
+    }
+
+    #[inline(never)]
+    fn refuse(&mut self, now: Cycle) {
+        self.counters.refused_pushes += 1;
+        if self.last_refused != Some(now) {
+            self.counters.full_cycles += 1;
+            self.last_refused = Some(now);
+        }
+    }
+
     /// Push `item` at `now`; it becomes visible at `now + latency`. On a full
     /// FIFO the item is handed back and the cycle counts as a full cycle.
+    #[inline]
     pub fn push(&mut self, now: Cycle, item: T) -> Result<(), T> {
         self.observe(now);
         if self.items.len() >= self.capacity {
-            self.counters.refused_pushes += 1;
-            if self.last_refused != Some(now) {
-                self.counters.full_cycles += 1;
-                self.last_refused = Some(now);
-            }
+            self.refuse(now);
             return Err(item);
         }
         self.items.push_back((now + self.latency, item));
@@ -154,12 +182,14 @@ impl<T> Fifo<T> {
     }
 
     /// True if the oldest item is visible at `now`.
+    #[inline]
     pub fn can_pop(&self, now: Cycle) -> bool {
         self.check_time(now);
         self.items.front().is_some_and(|&(ready, _)| ready <= now)
     }
 
     /// The oldest item, if it is visible at `now`.
+    #[inline]
     pub fn peek(&self, now: Cycle) -> Option<&T> {
         self.check_time(now);
         match self.items.front() {
@@ -169,6 +199,7 @@ impl<T> Fifo<T> {
     }
 
     /// Remove and return the oldest item, if it is visible at `now`.
+    #[inline]
     pub fn pop(&mut self, now: Cycle) -> Option<T> {
         self.observe(now);
         if !self.can_pop(now) {
@@ -179,30 +210,100 @@ impl<T> Fifo<T> {
     }
 
     /// The oldest item, visible or still in transit.
+    #[inline]
     pub fn oldest(&self) -> Option<&T> {
         self.items.front().map(|(_, item)| item)
     }
 
     /// The oldest item, visible or not, for in-place updates by the
     /// consumer that will pop it (e.g. marking a retry).
+    #[inline]
     pub fn oldest_mut(&mut self) -> Option<&mut T> {
         self.items.front_mut().map(|(_, item)| item)
     }
 
     /// The cycle at which the oldest item becomes (or became) visible.
+    #[inline]
     pub fn next_visible(&self) -> Option<Cycle> {
         self.items.front().map(|&(ready, _)| ready)
     }
 
     /// Debug check that `now` is not before the latest push or pop.
+    #[inline(always)]
     fn check_time(&self, now: Cycle) {
         debug_assert!(now >= self.last_now, "Fifo used at cycle {now} after cycle {}", self.last_now);
     }
 
     /// Check `now` and record it as the latest time seen.
+    #[inline(always)]
     fn observe(&mut self, now: Cycle) {
         self.check_time(now);
         self.last_now = now;
+    }
+}
+
+/// A fixed-capacity ring buffer of `Copy` items (the FIFO's storage; slots
+/// are written as they are first needed, so no item value is invented).
+#[derive(Clone, Debug)]
+struct Ring<E> {
+    buf: Vec<E>,
+    cap: usize,
+    head: usize,
+    len: usize,
+}
+
+impl<E: Copy> Ring<E> {
+    fn new(cap: usize) -> Ring<E> {
+        Ring { buf: Vec::with_capacity(cap), cap, head: 0, len: 0 }
+    }
+
+    #[inline(always)]
+    fn len(&self) -> usize {
+        self.len
+    }
+
+    #[inline(always)]
+    fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    #[inline(always)]
+    fn wrap(&self, i: usize) -> usize {
+        if i >= self.cap { i - self.cap } else { i }
+    }
+
+    /// Append; the caller keeps `len < cap`.
+    #[inline(always)]
+    fn push_back(&mut self, e: E) {
+        debug_assert!(self.len < self.cap);
+        let at = self.wrap(self.head + self.len);
+        if at == self.buf.len() {
+            self.buf.push(e);
+        } else {
+            self.buf[at] = e;
+        }
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn front(&self) -> Option<&E> {
+        (self.len > 0).then(|| &self.buf[self.head])
+    }
+
+    #[inline(always)]
+    fn front_mut(&mut self) -> Option<&mut E> {
+        (self.len > 0).then(|| &mut self.buf[self.head])
+    }
+
+    #[inline(always)]
+    fn pop_front(&mut self) -> Option<E> {
+        if self.len == 0 {
+            return None;
+        }
+        let e = self.buf[self.head];
+        self.head = self.wrap(self.head + 1);
+        self.len -= 1;
+        Some(e)
     }
 }
 
@@ -312,6 +413,20 @@ mod tests {
         assert_eq!(c, FifoCounters { pushes: 2, pops: 1, full_cycles: 2, refused_pushes: 4, peak_len: 1 });
         f.reset_counters();
         assert_eq!(f.counters(), FifoCounters { peak_len: 1, ..FifoCounters::default() });
+    }
+
+    #[test]
+    fn a_refused_offer_counts_like_a_refused_push() {
+        let mut f = Fifo::new(1, 1);
+        assert!(f.offer(N));
+        f.push(N, 0).unwrap();
+        assert!(!f.offer(N));
+        assert!(!f.offer(N));
+        assert!(f.push(N + 1, 1).is_err());
+        let c = f.counters();
+        assert_eq!((c.refused_pushes, c.full_cycles, c.pushes), (3, 2, 1));
+        assert_eq!(f.pop(N + 1), Some(0));
+        assert!(f.offer(N + 1));
     }
 
     /// Consumer ticked before producer in each cycle (downstream first).

@@ -18,10 +18,14 @@ pub mod dest_frame;
 pub mod engine;
 pub mod fifo;
 pub mod fixed;
+pub mod frame_stats;
+pub mod hw_reference;
+pub mod lru;
 pub mod mem;
 pub mod sample_image;
 pub mod schedule;
 pub mod stats;
+pub mod timeline;
 pub mod traversal;
 pub mod units;
 

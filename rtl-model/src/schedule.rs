@@ -314,31 +314,57 @@ fn fetch_plan(lines: &[Line], live: &[bool], size: (u32, u32)) -> (Vec<FetchInte
 
 /// Rule 4: destination tiles in the order the hole fill releases them,
 /// each with the number of fill visits after which it may leave: the
-/// visits of its own samples and of every sample whose taps
-/// (`taps(line, x, y)`) fall in it. `lines` is the fill order.
-pub fn release_order<I: Iterator<Item = (i64, i64)>>(
-    lines: &[Line],
-    dst: (u32, u32),
-    tile: u32,
-    taps: impl Fn(&Line, u32, u32) -> I,
-) -> Vec<(u64, u32)> {
+/// visits of its own samples and of every sample whose taps fall in it.
+/// `lines` is the fill order; a sample at position `a` of line `l` has its
+/// taps at positions `a + k` (`k` in `tap_offsets`) of the line before it
+/// in its sheet (`l.line − l.line_step`), as the hole fill's are.
+///
+/// Computed per line and per tile segment, not per sample: along a line
+/// the visit numbers grow in visiting order, so the last visit that
+/// touches a tile segment is that of the segment's last sample in
+/// visiting order (for taps, of the sample whose tap is the segment's
+/// last).
+pub fn release_order(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[i64]) -> Vec<(u64, u32)> {
     let tw = dst.0.div_ceil(tile);
     let th = dst.1.div_ceil(tile);
     let mut last = vec![0u64; (tw * th) as usize];
-    // Tile of a sample without dividing: column and row-start tables.
-    let col: Vec<u32> = (0..dst.0).map(|x| x / tile).collect();
-    let row: Vec<u32> = (0..dst.1).map(|y| y / tile * tw).collect();
+    let t = tile as i64;
     let mut visit = 0u64;
     for l in lines {
-        for (x, y) in l.samples() {
-            visit += 1;
-            last[(row[y as usize] + col[x as usize]) as usize] = visit;
-            for (tx, ty) in taps(l, x, y) {
-                if tx >= 0 && ty >= 0 && tx < dst.0 as i64 && ty < dst.1 as i64 {
-                    last[(row[ty as usize] + col[tx as usize]) as usize] = visit;
-                }
+        let (lo, hi) = (l.lo as i64, l.hi as i64);
+        // The visit number of the sample at position `a` of this line.
+        let v = |a: i64| visit + 1 + if l.step > 0 { (a - lo) as u64 } else { (hi - a) as u64 };
+        let (n_lines, len) = match l.major {
+            Major::Row => (dst.1 as i64, dst.0 as i64),
+            Major::Column => (dst.0 as i64, dst.1 as i64),
+        };
+        let tile_at = |line: i64, a: i64| -> usize {
+            let (x, y) = match l.major {
+                Major::Row => (a, line),
+                Major::Column => (line, a),
+            };
+            ((y / t) * tw as i64 + x / t) as usize
+        };
+        // Every tile segment of positions b0..=b1 on `line`, each touched
+        // by the sample at `b - k` for b in the segment.
+        let mut touch = |line: i64, b0: i64, b1: i64, k: i64| {
+            let mut b = b0;
+            while b <= b1 {
+                let end = ((b / t + 1) * t - 1).min(b1);
+                let visit = if l.step > 0 { v(end - k) } else { v(b - k) };
+                let e = &mut last[tile_at(line, b)];
+                *e = (*e).max(visit);
+                b = end + 1;
+            }
+        };
+        touch(l.line as i64, lo, hi, 0);
+        let prev = l.line as i64 - l.line_step as i64;
+        if (0..n_lines).contains(&prev) {
+            for &k in tap_offsets {
+                touch(prev, (lo + k).max(0), (hi + k).min(len - 1), k);
             }
         }
+        visit += l.len() as u64;
     }
     let mut order: Vec<(u64, u32)> = last.iter().enumerate().map(|(t, &v)| (v, t as u32)).collect();
     order.sort_unstable();

@@ -7,14 +7,14 @@
 //! sample-address counter steps through. A [`Line`] is one row or column
 //! segment of one sheet: `(sheet, major, line, lo..=hi, step, line_step)`.
 //! Downstream units (the warp front end, the hole-fill unit) expand each
-//! descriptor into sample addresses, one per clock. [`Rank`] is the
+//! descriptor into sample addresses, one per clock. [`OrderKey`] is the
 //! companion comparator: the position of any sample in the forward order,
 //! computed in O(1) from its coordinates, so that "was `q` visited before
 //! `p` in this pass?" is one compare instead of a visited bit-plane.
 //!
 //! Ports (functional): in — image width and height, the homogeneous
 //! epipole `(ex, ey, ew)`; out — [`forward_lines`] / [`reverse_lines`], and
-//! [`Rank::rank`] for any sample.
+//! [`OrderKey::key`] for any sample.
 //!
 //! Throughput: a line descriptor is produced once per line (at most
 //! 8 × max(width, height) descriptors per image); its samples are then
@@ -308,11 +308,11 @@ pub fn reverse_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
 }
 
 /// The position of any sample in the forward order, in O(1): sorting
-/// samples by [`Rank::rank`] gives exactly the order of [`forward_lines`].
+/// samples by [`OrderKey::key`] gives exactly the order of [`forward_lines`].
 /// In hardware: the sheet classifier of rule 2 and two conditional
 /// subtractions, so "visited earlier in this pass" is one compare.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Rank {
+pub struct OrderKey {
     width: u32,
     height: u32,
     cut: Cut,
@@ -320,21 +320,21 @@ pub struct Rank {
     patterns: [Pattern; 8],
 }
 
-impl Rank {
+impl OrderKey {
     /// The ranker for a `width x height` image around `epipole`.
-    pub fn new(width: u32, height: u32, epipole: &Epipole) -> Rank {
+    pub fn new(width: u32, height: u32, epipole: &Epipole) -> OrderKey {
         let cut = cut(epipole);
         let patterns = match cut {
             Cut::Single(p) => [p; 8],
             Cut::Eight { ew_dir, .. } => std::array::from_fn(|s| sheet_pattern(s as u8, ew_dir)),
         };
-        Rank { width, height, cut, patterns }
+        OrderKey { width, height, cut, patterns }
     }
 
-    /// Rank of sample `(x, y)` (inside the image): distinct for distinct
+    /// OrderKey of sample `(x, y)` (inside the image): distinct for distinct
     /// samples, increasing along the forward order. Encoded as
     /// `sheet · width·height + line index · line length + index in line`.
-    pub fn rank(&self, x: u32, y: u32) -> u64 {
+    pub fn key(&self, x: u32, y: u32) -> u64 {
         debug_assert!(x < self.width && y < self.height, "({x},{y}) outside {}x{}", self.width, self.height);
         let sheet = match self.cut {
             Cut::Single(_) => 0,
@@ -378,8 +378,8 @@ mod tests {
                 assert!(!std::mem::replace(&mut seen[(y * w + x) as usize], true));
             }
             assert_eq!(o.len(), (w * ht) as usize);
-            let r = Rank::new(w, ht, &e);
-            assert!(o.windows(2).all(|p| r.rank(p[0].0, p[0].1) < r.rank(p[1].0, p[1].1)), "{h:?}");
+            let r = OrderKey::new(w, ht, &e);
+            assert!(o.windows(2).all(|p| r.key(p[0].0, p[0].1) < r.key(p[1].0, p[1].1)), "{h:?}");
             let back: Vec<_> = reverse_lines(w, ht, &e).iter().flat_map(|l| l.samples()).collect();
             assert!(back.iter().eq(o.iter().rev()));
         }

@@ -62,6 +62,7 @@ use std::collections::VecDeque;
 
 use crate::clock::Cycle;
 use crate::stats::{Histogram, StatDef, Stats};
+use crate::timeline::RequestSpan;
 
 /// Who asked for the data (one byte counter pair per client).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -107,7 +108,7 @@ pub enum Access {
 
 /// A memory request, as handed back when refused.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Request {
+pub struct Request<T = u64> {
     /// Who asked.
     pub client: Client,
     /// Read or write.
@@ -115,7 +116,7 @@ pub struct Request {
     /// Bytes asked for (before rounding to bursts).
     pub bytes: u64,
     /// The client's identifier, returned on completion.
-    pub tag: u64,
+    pub tag: T,
 }
 
 /// The DRAM knobs.
@@ -206,17 +207,17 @@ pub struct DramCounters {
 }
 
 #[derive(Clone, Copy, Debug)]
-struct InFlight {
+struct InFlight<T> {
     done: Cycle,
-    tag: u64,
+    tag: T,
     client: Client,
 }
 
 /// The DRAM model. See the module documentation for the timing rules.
 #[derive(Clone, Debug)]
-pub struct Dram {
+pub struct Dram<T = u64> {
     cfg: DramConfig,
-    in_flight: VecDeque<InFlight>,
+    in_flight: VecDeque<InFlight<T>>,
     /// First free byte slot of the bus: cycle c carries the slots
     /// `[c * peak, (c + 1) * peak)`.
     bus_free_slot: u64,
@@ -224,14 +225,16 @@ pub struct Dram {
     last_refused: Option<Cycle>,
     now: Option<Cycle>,
     counters: DramCounters,
+    /// Every accepted request's lifetime, when recording (a timeline).
+    spans: Option<Vec<RequestSpan>>,
 }
 
-impl Dram {
+impl<T: Copy> Dram<T> {
     /// A DRAM with knobs `cfg`, idle.
     ///
     /// # Panics
     /// If `cfg` does not validate.
-    pub fn new(cfg: DramConfig) -> Dram {
+    pub fn new(cfg: DramConfig) -> Dram<T> {
         cfg.validate().unwrap_or_else(|e| panic!("invalid DRAM configuration: {e}"));
         Dram {
             cfg,
@@ -241,6 +244,7 @@ impl Dram {
             last_refused: None,
             now: None,
             counters: DramCounters::default(),
+            spans: None,
         }
     }
 
@@ -296,7 +300,14 @@ impl Dram {
     /// # Panics
     /// If `bytes` is 0.
     #[inline]
-    pub fn request(&mut self, now: Cycle, client: Client, access: Access, bytes: u64, tag: u64) -> Result<(), Request> {
+    pub fn request(
+        &mut self,
+        now: Cycle,
+        client: Client,
+        access: Access,
+        bytes: u64,
+        tag: T,
+    ) -> Result<(), Request<T>> {
         assert!(bytes > 0, "DRAM request of 0 bytes");
         if !self.will_accept(now) {
             if self.last_refused != Some(now) {
@@ -328,13 +339,26 @@ impl Dram {
             }
         }
         c.latency.record(done - now);
+        if let Some(spans) = &mut self.spans {
+            spans.push(RequestSpan { client, access, bytes: rounded, accepted: now, done });
+        }
         Ok(())
+    }
+
+    /// Start recording every accepted request's lifetime (for a timeline).
+    pub fn record_requests(&mut self) {
+        self.spans.get_or_insert_with(Vec::new);
+    }
+
+    /// The requests recorded so far (empty unless recording).
+    pub fn take_requests(&mut self) -> Vec<RequestSpan> {
+        self.spans.take().unwrap_or_default()
     }
 
     /// The oldest outstanding request, if it has completed by `now`:
     /// `(tag, client)`. Frees its outstanding slot.
     #[inline]
-    pub fn completed(&mut self, now: Cycle) -> Option<(u64, Client)> {
+    pub fn completed(&mut self, now: Cycle) -> Option<(T, Client)> {
         self.check_now(now);
         let head = self.in_flight.front()?;
         if head.done > now {

@@ -6,11 +6,14 @@
 //! latency-limited channel, and count its bytes per client.
 //!
 //! API: [`dram`] ([`Dram`], [`DramConfig`], [`Client`], [`Access`],
-//! [`Request`], [`DRAM_STATS`]).
+//! [`Request`], [`DRAM_STATS`]) and [`port`] (the memory port: [`MemPort`],
+//! request [`Tag`]s).
 //!
 //! Rules and timing: see [`dram`]. Not modelled here: on-chip caches (the
 //! source and destination caches are units of their own).
 
 pub mod dram;
+pub mod port;
 
 pub use dram::{Access, Client, DRAM_STATS, Dram, DramConfig, Request};
+pub use port::{MemPort, Req, Tag};

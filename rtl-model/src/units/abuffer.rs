@@ -295,6 +295,9 @@ const EMPTY_BUILDING: Building = Building { frag: EMPTY_FRAGMENT, sum: [0.0; 3],
 #[derive(Clone)]
 pub struct Packer {
     regs: [Building; MAX_SAMPLES_PER_PIXEL],
+    /// The output register: the last pixel packed (fragments past its
+    /// count are stale).
+    out: PackedPixel,
 }
 
 impl Default for Packer {
@@ -306,7 +309,10 @@ impl Default for Packer {
 impl Packer {
     /// A packer with cleared registers.
     pub fn new() -> Packer {
-        Packer { regs: [EMPTY_BUILDING; MAX_SAMPLES_PER_PIXEL] }
+        Packer {
+            regs: [EMPTY_BUILDING; MAX_SAMPLES_PER_PIXEL],
+            out: PackedPixel { count: 0, frags: [EMPTY_FRAGMENT; MAX_SAMPLES_PER_PIXEL] },
+        }
     }
 
     /// Pack one pixel (rules 1–3). `samples[k]` is sample `k` of the pixel
@@ -317,6 +323,20 @@ impl Packer {
         p: &AbufferParams,
         c: &mut AbufferCounters,
     ) -> PackedPixel {
+        let n = self.pack_in_place(samples, p, c).count as usize;
+        let mut out = PackedPixel { count: n as u8, frags: [EMPTY_FRAGMENT; MAX_SAMPLES_PER_PIXEL] };
+        out.frags[..n].copy_from_slice(&self.out.frags[..n]);
+        out
+    }
+
+    /// [`Packer::pack_pixel`] into the packer's output register (the same
+    /// fragments; no copy of the whole pixel).
+    pub fn pack_in_place(
+        &mut self,
+        samples: &[Option<SampleIn>],
+        p: &AbufferParams,
+        c: &mut AbufferCounters,
+    ) -> &PackedPixel {
         let ss = p.ss;
         assert!(p.max_fragments >= 1, "the packer needs at least one fragment per pixel");
         assert!(samples.len() == (ss * ss) as usize && samples.len() <= MAX_SAMPLES_PER_PIXEL, "ss = {ss}");
@@ -385,7 +405,8 @@ impl Packer {
             c.forced_merges += 1;
         }
         // Rule 2: the means, as written to memory.
-        let mut out = PackedPixel { count: n as u8, frags: [EMPTY_FRAGMENT; MAX_SAMPLES_PER_PIXEL] };
+        let out = &mut self.out;
+        out.count = n as u8;
         for (o, b) in out.frags.iter_mut().zip(&regs[..n]) {
             let cnt = b.count as f64;
             *o = Fragment { colour: b.sum.map(|s| (s / cnt) as f32), weight: (b.wsum / cnt) as f32, ..b.frag };
@@ -474,7 +495,7 @@ pub fn pack_reference(img: &SampleImage, p: &AbufferParams, c: &mut AbufferCount
                     weight: 0.0,
                 });
             }
-            let packed = packer.pack_pixel(&samples[..n], p, c);
+            let packed = packer.pack_in_place(&samples[..n], p, c);
             out.first.push(out.frags.len() as u32);
             out.counts.push(packed.count);
             out.frags.extend_from_slice(packed.fragments());
@@ -614,7 +635,7 @@ pub fn round_trip_dest_pixels(
                     weight: frame.fill_weight[i],
                 });
             }
-            let packed = packer.pack_pixel(&samples[..n], p, c);
+            let packed = packer.pack_in_place(&samples[..n], p, c);
             bytes += packed.bytes();
             // Unpack at once: pixels do not overlap.
             for (k, &i) in idx[..n].iter().enumerate() {

@@ -22,9 +22,27 @@
 //!    and weight, and sets the hole-fill colour (the candidate's fill
 //!    colour: its own or its forward-edge neighbour's), valid, distance 0.
 //!
+//! 5. Control ([`CompositeStage`]): each cycle it takes up to
+//!    `rects_per_cycle` stamps from the stamp FIFO, in order. A stamp
+//!    proceeds only when every tile it touches (at most 4, since
+//!    `kernel_limit` ≤ `tile_size`) is resident; it looks them all up, each
+//!    counted once per stamp however long it waits, and pins them against
+//!    spills. A stamp waiting for a tile blocks the stamps behind it
+//!    (stall `tile`); a stamp still in the FIFO's transit leaves it stalled
+//!    on `upstream`. The better-reference mask is computed (by the
+//!    transform unit, on request) only when rule 3 needs it.
+//!
 //! Not modelled: bank conflicts inside the cache (one stamp per cycle).
 
+use super::dest_cache::DestCache;
+use super::raster::Stamped;
+use super::tile_manager::TileManager;
+use super::transform::TransformUnit;
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
+use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
+use crate::fifo::Fifo;
+use crate::mem::MemPort;
 
 /// A rasterized candidate.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -41,7 +59,7 @@ pub struct Candidate {
     pub fill_colour: [f32; 3],
 }
 
-/// What one composite did.
+/// What one composite did (in report order).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Verdict {
     /// Written over an empty or hole-fill sample (rule 1).
@@ -93,6 +111,115 @@ pub fn composite(
         f.fill_distance[i] = 0;
     }
     verdict
+}
+
+/// The compositor's ports for one cycle.
+pub struct CompositePorts<'a> {
+    /// The stamp FIFO from the rasterizer.
+    pub input: &'a mut Fifo<Stamped>,
+    /// The derived frame's planes (the cache contents).
+    pub frame: &'a mut DestFrame,
+    /// The destination cache.
+    pub cache: &'a mut DestCache,
+    /// The memory port (loads and spills the cache starts).
+    pub port: &'a mut MemPort,
+    /// The tile manager (a composited kernel is done).
+    pub tiles: &'a mut TileManager,
+}
+
+/// The compositor's control for one warp (rule 5).
+pub struct CompositeStage<'s> {
+    tu: &'s TransformUnit,
+    slope_tol: f64,
+    rel_tol: f64,
+    lanes: usize,
+    verdicts: [u64; 4],
+    activity: Activity,
+}
+
+impl<'s> CompositeStage<'s> {
+    /// A compositor with the Z tolerances `slope_tol`, `rel_tol`, `lanes`
+    /// stamps per cycle, for the warp by `tu`, accounted by `activity`.
+    pub fn new(tu: &'s TransformUnit, slope_tol: f64, rel_tol: f64, lanes: u32, activity: Activity) -> Self {
+        CompositeStage { tu, slope_tol, rel_tol, lanes: lanes as usize, verdicts: [0; 4], activity }
+    }
+
+    /// One cycle (rule 5).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut CompositePorts<'_>) -> Tick {
+        let mut did = 0;
+        let mut waiting_tile = false;
+        while did < self.lanes {
+            let Some(job) = io.input.peek(now) else { break };
+            let mut tiles = [u32::MAX; 4];
+            let c = &*io.cache;
+            let (tx0, tx1) = (c.tile_col(job.stamp.x.0 as u32), c.tile_col(job.stamp.x.1 as u32));
+            let (ty0, ty1) = (c.tile_row_base(job.stamp.y.0 as u32), c.tile_row_base(job.stamp.y.1 as u32));
+            let mut k = 0;
+            let mut row = ty0;
+            while row <= ty1 {
+                for tx in tx0..=tx1 {
+                    tiles[k] = row + tx;
+                    k += 1;
+                }
+                row += c.tiles().0;
+            }
+            let counted = !job.counted;
+            let mut ready = true;
+            for &t in &tiles[..k] {
+                ready &= io.cache.want(now, t, counted, &tiles[..k], io.frame, io.port);
+            }
+            if !ready {
+                if let Some(j) = io.input.oldest_mut() {
+                    j.counted = true;
+                }
+                waiting_tile = true;
+                break;
+            }
+            let mut job = io.input.pop(now).expect("peeked");
+            let (sx, sy) = job.sample;
+            let (src_inv_z, src_slopes) = (job.src_inv_z, job.src_slopes);
+            let tu = self.tu;
+            let f = &mut *io.frame;
+            job.stamp.for_each(|x, y| {
+                let i = f.index(x, y);
+                let better = &mut job.better;
+                let v = composite(
+                    f,
+                    i,
+                    &job.cand,
+                    || *better.get_or_insert_with(|| tu.better_mask(sx as f64, sy as f64, src_inv_z, src_slopes)),
+                    self.slope_tol,
+                    self.rel_tol,
+                );
+                self.verdicts[v as usize] += 1;
+            });
+            io.tiles.kernel_done(job.line);
+            did += 1;
+        }
+        let t = if did > 0 {
+            Tick::BUSY
+        } else if io.input.is_empty() {
+            Tick::IDLE
+        } else if waiting_tile {
+            Tick::stall(StallReason::Tile)
+        } else {
+            Tick::stall(StallReason::Upstream)
+        };
+        self.activity.record(now, t)
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
+    }
+
+    /// Verdicts in this warp, in [`Verdict`] order (samples).
+    pub fn verdicts(&self) -> [u64; 4] {
+        self.verdicts
+    }
 }
 
 #[cfg(test)]

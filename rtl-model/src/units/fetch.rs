@@ -22,9 +22,23 @@
 //! 4. A sample is streamed only when its block is on chip; samples with no
 //!    surface have no fragment and cost no cycle.
 //!
+//! 5. Control ([`FetchStage`]): it streams the schedule's intervals in
+//!    order, up to `transform_throughput` samples per cycle. It is *busy* in
+//!    a cycle it pushed a sample, else *stalled* on `dram` (the next
+//!    sample's block is not on chip) or `fifo_full` (the transform pipeline
+//!    refused the sample), else *idle*. `source_cache.wait_cycles` counts
+//!    every cycle in which it met an absent block, busy or not, including
+//!    the cycles the engine skips while it waits.
+//!
 //! Not modelled: the expander's internal buffering (a fragment expands to
 //! its covered samples with no delay), compression of the stream.
 
+use super::transform::{InFlightSample, TransformStage};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
+use crate::clock::Cycle;
+use crate::hw_reference::HwReference;
+use crate::lru::Lru;
+use crate::mem::{Access, Client, MemPort, Req, Tag};
 use crate::schedule::FetchInterval;
 use crate::traversal::Major;
 
@@ -64,11 +78,8 @@ pub struct SourceCache {
     used: u64,
     state: Vec<BlockState>,
     bytes: Vec<u64>,
-    /// Resident blocks (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per block: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident blocks in replacement order.
+    lru: Lru,
     /// Per sample column: its block column (`x / side`).
     col_block: Vec<u32>,
     /// Per sample row: the number of its block row's first block.
@@ -99,9 +110,7 @@ impl SourceCache {
             used: 0,
             state: vec![BlockState::Absent; n],
             bytes: b,
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; n],
+            lru: Lru::new(n),
             col_block: (0..w).map(|x| x / side).collect(),
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
@@ -154,42 +163,181 @@ impl SourceCache {
     }
 
     /// Block `b` has arrived at `now`: make room (rule 2) and keep it.
-    pub fn arrived(&mut self, b: u32, now: u64) {
+    pub fn arrived(&mut self, b: u32, now: Cycle) {
+        let now = now.get();
         let need = self.bytes[b as usize];
-        while self.used + need > self.capacity && !self.resident.is_empty() {
-            // Least recently used, ties to the lowest block number.
-            let mut k = 0;
-            for j in 1..self.resident.len() {
-                if (self.resident_use[j], self.resident[j]) < (self.resident_use[k], self.resident[k]) {
-                    k = j;
-                }
-            }
-            let v = self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[v as usize] = u32::MAX;
+        while self.used + need > self.capacity
+            && let Some(v) = self.lru.victim(|_| true)
+        {
+            self.lru.remove(v);
             self.used -= self.bytes[v as usize];
             self.state[v as usize] = BlockState::Absent;
             self.counters.evictions += 1;
         }
         self.used += need;
         self.state[b as usize] = BlockState::Resident;
-        self.pos[b as usize] = self.resident.len() as u32;
-        self.resident.push(b);
-        self.resident_use.push(now);
+        self.lru.insert(b, now);
     }
 
     /// Read sample data from block `b` at `now`: true if on chip.
     #[inline]
-    pub fn touch(&mut self, b: u32, now: u64) -> bool {
+    pub fn touch(&mut self, b: u32, now: Cycle) -> bool {
         if self.state[b as usize] == BlockState::Resident {
-            self.resident_use[self.pos[b as usize] as usize] = now;
+            self.lru.touch(b, now.get());
             true
         } else {
             false
         }
+    }
+}
+
+/// The fetch unit's ports for one cycle.
+pub struct FetchPorts<'a> {
+    /// The transform pipeline it feeds.
+    pub transform: &'a mut TransformStage,
+    /// The memory port (block reads).
+    pub port: &'a mut MemPort,
+}
+
+/// The fetch unit's control for one warp (rule 5).
+pub struct FetchStage<'s> {
+    plan: &'s [FetchInterval],
+    reference: &'s HwReference,
+    /// The source cache.
+    pub cache: SourceCache,
+    lanes: usize,
+    /// Interval being streamed, and the position in it.
+    interval: usize,
+    pos: u32,
+    /// Intervals whose blocks are queued (rule 3).
+    prefetched: usize,
+    /// Since when the fetch unit has met an absent block in every tick.
+    waiting_since: Option<Cycle>,
+    activity: Activity,
+}
+
+impl<'s> FetchStage<'s> {
+    /// Stream `plan` from `reference` through `cache`, `lanes` samples per
+    /// cycle, accounted by `activity`.
+    pub fn new(
+        plan: &'s [FetchInterval],
+        reference: &'s HwReference,
+        cache: SourceCache,
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
+        FetchStage {
+            plan,
+            reference,
+            cache,
+            lanes: lanes as usize,
+            interval: 0,
+            pos: 0,
+            prefetched: 0,
+            waiting_since: None,
+            activity,
+        }
+    }
+
+    /// The interval being streamed (= intervals fully pushed).
+    #[inline]
+    pub fn interval(&self) -> usize {
+        self.interval
+    }
+
+    /// Every interval has been pushed.
+    #[inline]
+    pub fn is_done(&self) -> bool {
+        self.interval >= self.plan.len()
+    }
+
+    fn queue_block(cache: &mut SourceCache, port: &mut MemPort, b: u32) {
+        if cache.request(b) {
+            port.prefetch(Req {
+                client: Client::ReferenceFetch,
+                access: Access::Read,
+                bytes: cache.bytes(b),
+                tag: Tag::Block(b),
+            });
+        }
+    }
+
+    /// One cycle (rules 3–5).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut FetchPorts<'_>) -> Tick {
+        let r = self.reference;
+        let mut pushed = 0;
+        let mut stalled = None;
+        let mut block_wait = false;
+        while self.interval < self.plan.len() {
+            while self.prefetched < (self.interval + 2).min(self.plan.len()) {
+                let iv = self.plan[self.prefetched];
+                let (cache, port) = (&mut self.cache, &mut *io.port);
+                let mut list = Vec::new();
+                cache.blocks_of(&iv, |b| list.push(b));
+                for b in list {
+                    Self::queue_block(cache, port, b);
+                }
+                self.prefetched += 1;
+            }
+            let iv = self.plan[self.interval];
+            if self.pos == iv.len() {
+                self.interval += 1;
+                self.pos = 0;
+                continue;
+            }
+            if pushed == self.lanes {
+                break;
+            }
+            let (x, y) = iv.at(self.pos);
+            let i = r.grid.index(x, y);
+            if !r.valid_at(i) {
+                self.pos += 1;
+                continue;
+            }
+            let b = self.cache.block_of(x, y);
+            if !self.cache.touch(b, now) {
+                if self.cache.state(b) == BlockState::Absent {
+                    Self::queue_block(&mut self.cache, io.port, b);
+                }
+                block_wait = true;
+                stalled = Some(StallReason::Dram);
+                break;
+            }
+            let s = InFlightSample { grid_index: i as u32, interval: self.interval as u32 };
+            if io.transform.accept(now, s).is_err() {
+                stalled = Some(StallReason::FifoFull);
+                break;
+            }
+            pushed += 1;
+            self.pos += 1;
+        }
+        // Rule 5: wait cycles run from the first tick that meets an absent
+        // block to the first that does not.
+        match (block_wait, self.waiting_since) {
+            (true, None) => self.waiting_since = Some(now),
+            (false, Some(since)) => {
+                self.cache.counters.wait_cycles += now - since;
+                self.waiting_since = None;
+            }
+            _ => {}
+        }
+        let t = match (pushed, stalled) {
+            (1.., _) => Tick::BUSY,
+            (0, Some(r)) => Tick::stall(r),
+            (0, None) => Tick::IDLE,
+        };
+        self.activity.record(now, t)
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        if let Some(since) = self.waiting_since.take() {
+            self.cache.counters.wait_cycles += now - since;
+        }
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 }
 
@@ -207,12 +355,12 @@ mod tests {
         c.blocks_of(&iv, |b| seen.push(b));
         assert_eq!(seen, vec![2, 1, 0]);
         assert!(c.request(0) && !c.request(0));
-        c.arrived(0, 1);
+        c.arrived(0, Cycle(1));
         assert!(c.request(1));
-        c.arrived(1, 2);
-        assert!(c.touch(0, 3));
+        c.arrived(1, Cycle(2));
+        assert!(c.touch(0, Cycle(3)));
         assert!(c.request(2));
-        c.arrived(2, 4); // 100 + 101 + 102 > 250: block 1 (LRU) goes
+        c.arrived(2, Cycle(4)); // 100 + 101 + 102 > 250: block 1 (LRU) goes
         assert_eq!((c.state(1), c.state(0), c.counters.evictions), (BlockState::Absent, BlockState::Resident, 1));
     }
 }

@@ -31,7 +31,7 @@
 //! 3. A hole looks one line back (`line − line_step` of its descriptor) at
 //!    offsets −1, 0, +1 along the line. A tap counts only if it is inside
 //!    the image, was visited earlier in this pass and has plane 7 set.
-//!    "Visited earlier" is decided by comparing [`Rank`]s (`rank(tap) <
+//!    "Visited earlier" is decided by comparing [`OrderKey`]s (`rank(tap) <
 //!    rank(sample)`), not by a visited bit-plane: since the samples arrive
 //!    in forward order, the two are the same thing.
 //! 4. No near tap counts: the sample stays unfilled
@@ -49,6 +49,16 @@
 //!    `C ← (C·Wt + c/d)/(Wt + 1/d)` (C taken as 0 if plane 5 was clear),
 //!    `Wt ← Wt + 1/d`, plane 5 set. Real surfaces always win.
 //!
+//! 7. Control ([`HoleFillStage`]): the fill cursor walks the pass's lines
+//!    in order, up to `hole_fill_per_cycle` samples per cycle. It stops at
+//!    the first sample whose tile is not yet retired by the warp (stall
+//!    `upstream`), or not resident (stall `tile`: the destination cache
+//!    starts its load), or — for a hole — when a tile holding one of its
+//!    taps is not resident (stall `tile`; tap tiles still untouched or
+//!    already released in this warp are not waited for). A destination
+//!    cache look-up is counted once when the cursor enters a tile, and once
+//!    per look-up of a tap tile. Every visit, hole or surface, costs a slot.
+//!
 //! Not modelled: the fixed-point widths of the planes (plane 6 is `f32`,
 //! the accumulation `f64`, the distance 8 bits wide — the golden model's
 //! arithmetic, so that the two agree bit for bit), the divider's latency
@@ -56,9 +66,15 @@
 //! the boundary line buffer that holds the previous line's taps across a
 //! tile edge, and cache misses (the engine's business).
 
+use super::dest_cache::DestCache;
+use super::tile_cache::TileState;
+use super::tile_manager::TileManager;
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
+use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
-use crate::traversal::{Line, Major, Rank, forward_lines};
+use crate::mem::MemPort;
+use crate::traversal::{Line, Major, OrderKey, forward_lines};
 
 /// Knobs of the pass (the golden configuration's `hole_far_distance`,
 /// `hole_far_offset`, `hole_max_distance`).
@@ -107,7 +123,7 @@ pub struct HoleFillUnit {
     height: u32,
     params: HoleFillParams,
     lines: Vec<Line>,
-    rank: Rank,
+    order: OrderKey,
     counters: HoleFillCounters,
 }
 
@@ -120,7 +136,7 @@ impl HoleFillUnit {
             height,
             params: p,
             lines: forward_lines(width, height, epipole_derived),
-            rank: Rank::new(width, height, epipole_derived),
+            order: OrderKey::new(width, height, epipole_derived),
             counters: HoleFillCounters::default(),
         }
     }
@@ -157,8 +173,14 @@ impl HoleFillUnit {
     /// written, is not listed.
     pub fn tap_positions(line: &Line, x: u32, y: u32, p: &HoleFillParams) -> impl Iterator<Item = (i64, i64)> + use<> {
         let line = *line;
+        Self::tap_offsets(p).into_iter().map(move |k| Self::tap(&line, x, y, k))
+    }
+
+    /// The taps' offsets along the previous line, in tap order: the near
+    /// taps −1, 0, +1, then the far taps −`far_offset`, +`far_offset`.
+    pub fn tap_offsets(p: &HoleFillParams) -> [i64; 5] {
         let f = p.far_offset as i64;
-        [-1, 0, 1, -f, f].into_iter().map(move |k| Self::tap(&line, x, y, k))
+        [-1, 0, 1, -f, f]
     }
 
     /// Linear index of tap `k` if it counts (rule 3).
@@ -169,7 +191,7 @@ impl HoleFillUnit {
         }
         let (tx, ty) = (tx as u32, ty as u32);
         let j = f.index(tx, ty);
-        (self.rank.rank(tx, ty) < own_rank && f.fill_valid[j]).then_some(j)
+        (self.order.key(tx, ty) < own_rank && f.fill_valid[j]).then_some(j)
     }
 
     /// Process sample `(x, y)` of `line` (rules 2–6). Samples must come in
@@ -181,7 +203,7 @@ impl HoleFillUnit {
         if f.fill_valid[i] {
             return FillOutcome::Surface;
         }
-        let own = self.rank.rank(x, y);
+        let own = self.order.key(x, y);
         let p = self.params;
         let mut taps = [0usize; 5];
         let mut n = 0;
@@ -245,6 +267,122 @@ impl HoleFillUnit {
                 self.fill_sample(f, &line, x, y);
             }
         }
+    }
+}
+
+/// The hole fill's ports for one cycle.
+pub struct HoleFillPorts<'a> {
+    /// The derived frame's planes (the cache contents).
+    pub frame: &'a mut DestFrame,
+    /// The destination cache.
+    pub cache: &'a mut DestCache,
+    /// The memory port (loads and spills the cache starts).
+    pub port: &'a mut MemPort,
+    /// The tile manager (which tiles are retired).
+    pub tiles: &'a TileManager,
+}
+
+/// The hole fill's control for one pass (rule 7).
+pub struct HoleFillStage {
+    unit: HoleFillUnit,
+    lanes: u32,
+    line: usize,
+    pos: u32,
+    visits: u64,
+    /// The tile the cursor is in (its look-up counted on entry).
+    fill_tile: Option<u32>,
+    activity: Activity,
+}
+
+impl HoleFillStage {
+    /// The pass of `unit`, `lanes` samples per cycle, accounted by
+    /// `activity`.
+    pub fn new(unit: HoleFillUnit, lanes: u32, activity: Activity) -> HoleFillStage {
+        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, activity }
+    }
+
+    /// Samples visited so far.
+    #[inline]
+    pub fn visits(&self) -> u64 {
+        self.visits
+    }
+
+    /// Every sample has been visited.
+    #[inline]
+    pub fn is_done(&self) -> bool {
+        self.line >= self.unit.lines.len()
+    }
+
+    /// The datapath (its line list and counters).
+    pub fn unit(&self) -> &HoleFillUnit {
+        &self.unit
+    }
+
+    /// One cycle (rule 7).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut HoleFillPorts<'_>) -> Tick {
+        let mut did = 0;
+        let mut stalled = StallReason::Upstream;
+        let (dw, dh) = (self.unit.width, self.unit.height);
+        while did < self.lanes && self.line < self.unit.lines.len() {
+            let line = self.unit.lines[self.line];
+            let (x, y) = line.at(if line.step > 0 { line.lo + self.pos } else { line.hi - self.pos });
+            let t = io.cache.tile_of(x, y);
+            if !io.tiles.is_retired(t) {
+                stalled = StallReason::Upstream;
+                break;
+            }
+            let entering = self.fill_tile != Some(t);
+            self.fill_tile = Some(t);
+            if !io.cache.want(now, t, entering, &[t], io.frame, io.port) {
+                stalled = StallReason::Tile;
+                break;
+            }
+            let i = io.frame.index(x, y);
+            if !io.frame.fill_valid[i] {
+                // Taps read tiles visited earlier: they must be on chip.
+                let mut ready = true;
+                for (tx, ty) in HoleFillUnit::tap_positions(&line, x, y, &self.unit.params) {
+                    if tx < 0 || ty < 0 || tx >= dw as i64 || ty >= dh as i64 {
+                        continue;
+                    }
+                    let tt = io.cache.tile_of(tx as u32, ty as u32);
+                    if tt == t || matches!(io.cache.state(tt), TileState::Untouched | TileState::Released) {
+                        continue;
+                    }
+                    if !io.cache.want(now, tt, true, &[t, tt], io.frame, io.port) {
+                        ready = false;
+                    }
+                }
+                if !ready {
+                    stalled = StallReason::Tile;
+                    break;
+                }
+            }
+            self.unit.fill_sample(io.frame, &line, x, y);
+            self.visits += 1;
+            did += 1;
+            self.pos += 1;
+            if self.pos == line.len() {
+                self.line += 1;
+                self.pos = 0;
+            }
+        }
+        let t = if did > 0 {
+            Tick::BUSY
+        } else if self.line < self.unit.lines.len() {
+            Tick::stall(stalled)
+        } else {
+            Tick::IDLE
+        };
+        self.activity.record(now, t)
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
     }
 }
 

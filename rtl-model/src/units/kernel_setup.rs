@@ -32,11 +32,28 @@
 //!    epipole); if it is a deeper, warped surface failing rule 1, its
 //!    colour goes to the hole-fill plane instead of the sample's own.
 //!
+//! 6. Control ([`KernelSetupStage`]): each cycle it first absorbs up to
+//!    `transform_throughput` finished transforms into the line buffer, then
+//!    emits up to as many kernels along the schedule's lines. A line's
+//!    kernels start once the fetch interval of the next line of its sheet
+//!    has left the transform pipeline (`Schedule::need`); until then the
+//!    unit stalls on `upstream` (the line buffer). A full kernel FIFO
+//!    stalls it on `fifo_full`. Samples without a surface cost nothing; a
+//!    culled sample takes an emission slot but yields no kernel. It is
+//!    *busy* in a cycle it absorbed or emitted anything.
+//!
 //! Not modelled: line-buffer capacity stalls (the buffer is sized for the
 //! longest line of the reference).
 
-use super::transform::{TransformUnit, Warped};
+use super::line_buffer::{LineBuffer, Sources, at};
+use super::tile_manager::TileManager;
+use super::transform::{TransformStage, TransformUnit, Transformed};
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
+use crate::clock::Cycle;
+use crate::fifo::Fifo;
+use crate::hw_reference::HwReference;
+use crate::traversal::{Line, Major};
 use glam::DVec2;
 
 /// Why a 2x2 group's corner is not shared.
@@ -54,7 +71,7 @@ pub enum Group {
 
 /// Rule 1.
 #[inline]
-pub fn one_surface(a: &Warped, b: &Warped, offset_len: f64, threshold: f64) -> bool {
+pub fn same_surface(a: &Transformed, b: &Transformed, offset_len: f64, threshold: f64) -> bool {
     let limit = threshold * offset_len * 0.5 * (a.e + b.e);
     (a.pos - b.pos).length_squared() <= limit * limit
 }
@@ -67,11 +84,17 @@ fn cross(a: DVec2, b: DVec2) -> f64 {
 /// The 2x2 group with samples `a` (top left), `b` (top right), `c` (bottom
 /// left), `d` (bottom right), rule 2.
 #[inline]
-pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<Warped>, threshold: f64) -> Group {
+pub fn group(
+    a: Option<Transformed>,
+    b: Option<Transformed>,
+    c: Option<Transformed>,
+    d: Option<Transformed>,
+    threshold: f64,
+) -> Group {
     let (Some(a), Some(b), Some(c), Some(d)) = (a, b, c, d) else { return Group::Missing };
     let r2 = std::f64::consts::SQRT_2;
     let pairs = [(&a, &b, 1.0), (&c, &d, 1.0), (&a, &c, 1.0), (&b, &d, 1.0), (&a, &d, r2), (&b, &c, r2)];
-    if !pairs.iter().all(|(p, q, o)| one_surface(p, q, *o, threshold)) {
+    if !pairs.iter().all(|(p, q, o)| same_surface(p, q, *o, threshold)) {
         return Group::Discontinuous;
     }
     let q = [a.pos, b.pos, d.pos, c.pos];
@@ -88,7 +111,7 @@ pub fn group(a: Option<Warped>, b: Option<Warped>, c: Option<Warped>, d: Option<
 #[inline]
 pub fn corners(
     tu: &TransformUnit,
-    t: &Warped,
+    t: &Transformed,
     x: u32,
     y: u32,
     inv_z: f64,
@@ -144,12 +167,269 @@ pub fn backward_step(e: &Epipole, x: u32, y: u32) -> Option<(i32, i32)> {
     })
 }
 
+/// A kernel travelling from kernel setup to the rasterizer.
+#[derive(Clone, Copy, Debug)]
+pub struct Kernel {
+    /// The schedule line it belongs to.
+    pub line: u32,
+    /// The reference sample.
+    pub sample: (u32, u32),
+    /// Its warped position (derived samples).
+    pub pos: DVec2,
+    /// Its derived 1/Z.
+    pub inv_z: f64,
+    /// Rule 4's box `(x0, x1, y0, y1)`.
+    pub corners_box: (f64, f64, f64, f64),
+    /// The sample's colour.
+    pub colour: [f32; 3],
+    /// Rule 5's hole-fill colour.
+    pub fill_colour: [f32; 3],
+    /// The reference sample's 1/Z and slopes (for the derived slopes and
+    /// the better mask, computed on request).
+    pub src_inv_z: f64,
+    /// The reference sample's 1/Z slopes.
+    pub src_slopes: [f32; 2],
+}
+
+/// Kernel setup's ports for one cycle.
+pub struct KernelSetupPorts<'a> {
+    /// The transform pipeline it absorbs from.
+    pub transform: &'a mut TransformStage,
+    /// The fetch unit's interval cursor (intervals fully pushed).
+    pub fetch_interval: usize,
+    /// The kernel FIFO to the rasterizer.
+    pub out: &'a mut Fifo<Kernel>,
+    /// The tile manager (kernels in flight per line).
+    pub tiles: &'a mut TileManager,
+}
+
+/// What kernel setup emits for one valid sample of a line.
+#[derive(Clone, Copy, Debug)]
+enum Emit {
+    /// Behind the derived camera: takes a slot, no kernel.
+    Culled,
+    /// A kernel for the rasterizer.
+    Kernel(Kernel),
+}
+
+/// Kernel setup's control for one warp (rule 6).
+pub struct KernelSetupStage<'s> {
+    lines: &'s [Line],
+    need: &'s [Option<usize>],
+    reference: &'s HwReference,
+    tu: &'s TransformUnit,
+    buffer: &'s mut LineBuffer,
+    threshold: f64,
+    lanes: usize,
+    line: usize,
+    /// The current line's emissions (its valid samples in visiting order)
+    /// once its kernels are computed, and how many have been emitted.
+    emits: Vec<Emit>,
+    computed: bool,
+    next_emit: usize,
+    kernels: u64,
+    culled: u64,
+    activity: Activity,
+}
+
+impl<'s> KernelSetupStage<'s> {
+    /// Kernel setup over the schedule's `lines` (and their `need`) of a warp
+    /// of `reference` by `tu`, `lanes` kernels per cycle, accounted by
+    /// `activity`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        lines: &'s [Line],
+        need: &'s [Option<usize>],
+        reference: &'s HwReference,
+        tu: &'s TransformUnit,
+        buffer: &'s mut LineBuffer,
+        threshold: f64,
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
+        buffer.begin_warp(reference.samples.width, reference.samples.height);
+        KernelSetupStage {
+            lines,
+            need,
+            reference,
+            tu,
+            buffer,
+            threshold,
+            lanes: lanes as usize,
+            line: 0,
+            emits: Vec::new(),
+            computed: false,
+            next_emit: 0,
+            kernels: 0,
+            culled: 0,
+            activity,
+        }
+    }
+
+    /// Lines whose kernels have all been emitted.
+    #[inline]
+    pub fn lines_emitted(&self) -> usize {
+        self.line
+    }
+
+    /// Every line's kernels have been emitted.
+    #[inline]
+    pub fn is_done(&self) -> bool {
+        self.line >= self.lines.len()
+    }
+
+    fn next_line(&mut self) {
+        self.line += 1;
+        self.computed = false;
+        self.next_emit = 0;
+    }
+
+    /// One cycle (rule 6).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut KernelSetupPorts<'_>) -> Tick {
+        let mut absorbed = 0;
+        while absorbed < self.lanes && io.transform.take(now).is_some() {
+            absorbed += 1;
+        }
+        let done_intervals = io.transform.oldest_interval().unwrap_or(io.fetch_interval);
+        let mut emitted = 0;
+        let mut stalled = None;
+        while emitted < self.lanes && self.line < self.lines.len() {
+            let Some(need) = self.need[self.line] else {
+                // Dead line: no kernels.
+                self.next_line();
+                continue;
+            };
+            if need >= done_intervals {
+                stalled = Some(StallReason::Upstream);
+                break;
+            }
+            if !self.computed {
+                self.compute_line(io.transform);
+            }
+            let Some(&e) = self.emits.get(self.next_emit) else {
+                self.next_line();
+                continue;
+            };
+            if !io.out.offer(now) {
+                stalled = Some(StallReason::FifoFull);
+                break;
+            }
+            self.next_emit += 1;
+            emitted += 1;
+            match e {
+                Emit::Culled => self.culled += 1,
+                Emit::Kernel(k) => {
+                    self.kernels += 1;
+                    io.tiles.kernel_issued(self.line);
+                    io.out.push(now, k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
+                }
+            }
+        }
+        let t = if emitted > 0 || absorbed > 0 { Tick::BUSY } else { stalled.map_or(Tick::IDLE, Tick::stall) };
+        self.activity.record(now, t)
+    }
+
+    /// The kernels of the current line's valid samples, in visiting order
+    /// (rules 1–5): a pure function of the reference and the warp, so the
+    /// host computes the whole line when kernel setup first reaches it.
+    fn compute_line(&mut self, transform: &TransformStage) {
+        let l = self.lines[self.line];
+        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
+        let src = Sources { tu, r, transform, threshold };
+        let (major, c) = (l.major, l.line as i64);
+        let (lo, hi) = (l.lo as i64, l.hi as i64);
+        let buf = &mut *self.buffer;
+        for line in [c - 1, c, c + 1] {
+            buf.fill_warps(src, major, line, lo - 1, hi + 1);
+        }
+        for line in [c - 1, c] {
+            buf.fill_groups(src, major, line, lo - 1, hi);
+        }
+        self.emits.clear();
+        self.emits.reserve(l.len() as usize);
+        let epipole = &tu.setup.epipole_reference;
+        let len = match major {
+            Major::Row => r.samples.width as i64,
+            Major::Column => r.samples.height as i64,
+        };
+        let wcur = buf.warp_row(major, c).expect("the current line is on the image");
+        let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];
+        let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
+        let group = |row: Option<&[Option<Group>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
+        let recs = r.line_recs(major, l.line);
+        for k in 0..l.len() as i64 {
+            let a = if l.step > 0 { lo + k } else { hi - k };
+            let (x, y) = at(major, c, a);
+            if !r.valid_at(r.grid.index(x, y)) {
+                continue;
+            }
+            let Some(t) = wcur[a as usize] else {
+                self.emits.push(Emit::Culled);
+                continue;
+            };
+            // Corner order: (x-1, y-1), (x, y-1), (x-1, y), (x, y).
+            let groups = match major {
+                Major::Row => [group(gprev, a - 1), group(gprev, a), group(gcur, a - 1), group(gcur, a)],
+                Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
+            };
+            let rec = recs[a as usize];
+            let (corners, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
+            // Rule 5: a forward edge takes its backward neighbour's colour.
+            let mut fill_colour = rec.colour;
+            if let Some((dx, dy)) = backward_step(epipole, x, y) {
+                let (dl, da) = match major {
+                    Major::Row => (dy as i64, dx as i64),
+                    Major::Column => (dx as i64, dy as i64),
+                };
+                let an = a + da;
+                if let Some(row) = neighbours[(dl + 1) as usize]
+                    && (0..len).contains(&an)
+                    && let Some(tn) = row[an as usize]
+                {
+                    let (nx, ny) = at(major, c + dl, an);
+                    let nk = r.rec(major, nx, ny);
+                    // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
+                    let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
+                    if nk.z > rec.z && !same_surface(&t, &tn, offset, threshold) {
+                        fill_colour = nk.colour;
+                    }
+                }
+            }
+            self.emits.push(Emit::Kernel(Kernel {
+                line: self.line as u32,
+                sample: (x, y),
+                pos: t.pos,
+                inv_z: t.inv_z,
+                corners_box: bounding_box(&corners),
+                colour: rec.colour,
+                fill_colour,
+                src_inv_z: rec.inv_z,
+                src_slopes: rec.slopes,
+            }));
+        }
+        self.computed = true;
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
+    }
+
+    /// Kernels set up and samples culled in this warp.
+    pub fn counts(&self) -> (u64, u64) {
+        (self.kernels, self.culled)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn w(x: f64, y: f64) -> Option<Warped> {
-        Some(Warped { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 })
+    fn w(x: f64, y: f64) -> Option<Transformed> {
+        Some(Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 })
     }
 
     #[test]

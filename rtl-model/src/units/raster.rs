@@ -20,12 +20,31 @@
 //!    `round(centre − (limit − 1)/2)`, clamped into the box), and counted.
 //! 3. Then clipped to the derived image.
 //!
+//! 4. Control ([`RasterStage`]): each cycle it takes up to
+//!    `rects_per_cycle` kernels from the kernel FIFO, but only while the
+//!    stamp FIFO to the compositor offers room (it has no output register,
+//!    so it accepts a kernel only when its output is ready): otherwise it
+//!    stalls on `fifo_full`. A kernel whose stamp is empty after clipping
+//!    takes a slot, produces nothing and is done. A non-empty stamp gets
+//!    the flat candidate: the kernel's colour, 1/Z and fill colour, the
+//!    derived slopes (from the transform unit, on request) and the
+//!    reference number.
+//!
 //! Not modelled: the general path's triangle mesh (TR98 §7.1); boxes drawn
 //! larger than the stamp (the hardware cannot).
 
+use super::composite::Candidate;
+use super::kernel_setup::Kernel;
+use super::tile_manager::TileManager;
+use super::transform::TransformUnit;
+use super::{Activity, Run, StallReason, Tick, UnitCycles};
+use crate::clock::Cycle;
+use crate::fifo::Fifo;
+use crate::frame_stats::RECT_HIST_MAX;
+
 /// A rasterized rectangle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Stamp {
+pub struct Rect {
     /// Covered columns, inclusive (empty if `x.0 > x.1`).
     pub x: (i64, i64),
     /// Covered rows, inclusive.
@@ -67,13 +86,13 @@ fn window(range: (i64, i64), centre: f64, limit: u32) -> (i64, i64) {
 /// Rasterize the box `[x0, x1) x [y0, y1)` of a kernel whose warped sample
 /// is at `centre`, with stamp side `limit`, in a `size` image.
 #[inline]
-pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, size: (u32, u32)) -> Stamp {
+pub fn rect(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, size: (u32, u32)) -> Rect {
     let (rx, ry) = (centres_in(x0, x1), centres_in(y0, y1));
     let n = |r: (i64, i64)| (r.1 - r.0 + 1).max(0) as u32;
     let kernel = (n(rx), n(ry));
     let over_limit = kernel.0 > limit || kernel.1 > limit;
     let (rx, ry) = (window(rx, centre.0, limit), window(ry, centre.1, limit));
-    Stamp {
+    Rect {
         x: (rx.0.max(0), rx.1.min(size.0 as i64 - 1)),
         y: (ry.0.max(0), ry.1.min(size.1 as i64 - 1)),
         size: kernel,
@@ -81,7 +100,7 @@ pub fn stamp(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32,
     }
 }
 
-impl Stamp {
+impl Rect {
     /// True if no centre is covered.
     #[inline]
     pub fn is_empty(&self) -> bool {
@@ -105,17 +124,152 @@ impl Stamp {
     }
 }
 
+/// A stamp travelling from the rasterizer to the compositor: the covered
+/// samples and the flat candidate.
+#[derive(Clone, Copy, Debug)]
+pub struct Stamped {
+    /// The schedule line of its kernel.
+    pub line: u32,
+    /// Covered derived samples.
+    pub stamp: Rect,
+    /// The flat candidate.
+    pub cand: Candidate,
+    /// The reference sample.
+    pub sample: (u32, u32),
+    /// The reference sample's 1/Z and slopes (for the better mask).
+    pub src_inv_z: f64,
+    /// The reference sample's 1/Z slopes.
+    pub src_slopes: [f32; 2],
+    /// The better-reference mask, once computed.
+    pub better: Option<u32>,
+    /// The compositor has counted this stamp's tile look-ups (a retry is
+    /// not counted again).
+    pub counted: bool,
+}
+
+/// The rasterizer's ports for one cycle.
+pub struct RasterPorts<'a> {
+    /// The kernel FIFO from kernel setup.
+    pub input: &'a mut Fifo<Kernel>,
+    /// The stamp FIFO to the compositor.
+    pub out: &'a mut Fifo<Stamped>,
+    /// The tile manager (a kernel with an empty stamp is done).
+    pub tiles: &'a mut TileManager,
+}
+
+/// The rasterizer's control for one warp (rule 4).
+pub struct RasterStage<'s> {
+    tu: &'s TransformUnit,
+    source: u8,
+    limit: u32,
+    size: (u32, u32),
+    lanes: usize,
+    over_limit: u64,
+    rects: [[u64; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
+    activity: Activity,
+}
+
+impl<'s> RasterStage<'s> {
+    /// A rasterizer of `limit`-sample stamps into a `size` derived image,
+    /// `lanes` rectangles per cycle, for the warp of reference number
+    /// `source` by `tu`, accounted by `activity`.
+    pub fn new(
+        tu: &'s TransformUnit,
+        source: u8,
+        limit: u32,
+        size: (u32, u32),
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
+        RasterStage {
+            tu,
+            source,
+            limit,
+            size,
+            lanes: lanes as usize,
+            over_limit: 0,
+            rects: [[0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
+            activity,
+        }
+    }
+
+    /// One cycle (rule 4).
+    #[inline]
+    pub fn tick(&mut self, now: Cycle, io: &mut RasterPorts<'_>) -> Tick {
+        let mut did = 0;
+        let mut blocked = false;
+        while did < self.lanes && io.input.can_pop(now) {
+            if !io.out.offer(now) {
+                blocked = true;
+                break;
+            }
+            let k = io.input.pop(now).expect("visible");
+            did += 1;
+            let (x0, x1, y0, y1) = k.corners_box;
+            let s = rect(x0, x1, y0, y1, (k.pos.x, k.pos.y), self.limit, self.size);
+            self.over_limit += s.over_limit as u64;
+            if s.is_empty() {
+                io.tiles.kernel_done(k.line);
+                continue;
+            }
+            let (cw, ch) = s.drawn();
+            self.rects[(cw as usize).min(RECT_HIST_MAX)][(ch as usize).min(RECT_HIST_MAX)] += 1;
+            let (x, y) = k.sample;
+            let slopes = self.tu.dest_slopes(x as f64, y as f64, k.src_inv_z, k.src_slopes);
+            let cand = Candidate {
+                colour: k.colour,
+                inv_z: k.inv_z as f32,
+                slopes: [slopes[0] as f32, slopes[1] as f32],
+                source: self.source,
+                fill_colour: k.fill_colour,
+            };
+            let job = Stamped {
+                line: k.line,
+                stamp: s,
+                cand,
+                sample: k.sample,
+                src_inv_z: k.src_inv_z,
+                src_slopes: k.src_slopes,
+                better: None,
+                counted: false,
+            };
+            io.out.push(now, job).unwrap_or_else(|_| unreachable!("offer() accepted the stamp"));
+        }
+        let t = if did > 0 {
+            Tick::BUSY
+        } else if blocked {
+            Tick::stall(StallReason::FifoFull)
+        } else {
+            Tick::IDLE
+        };
+        self.activity.record(now, t)
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
+    }
+
+    /// Kernels over the stamp, and non-empty stamps by drawn size, in this
+    /// warp.
+    pub fn counts(&self) -> (u64, &[[u64; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1]) {
+        (self.over_limit, &self.rects)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn coverage_is_half_open_and_clipped_around_the_sample() {
-        let s = stamp(-0.5, 0.5, 0.5, 1.5, (0.0, 1.0), 4, (10, 10));
+        let s = rect(-0.5, 0.5, 0.5, 1.5, (0.0, 1.0), 4, (10, 10));
         assert_eq!((s.x, s.y), ((0, 0), (1, 1)));
-        let s = stamp(0.2, 0.8, 0.0, 1.0, (0.5, 0.5), 4, (10, 10));
+        let s = rect(0.2, 0.8, 0.0, 1.0, (0.5, 0.5), 4, (10, 10));
         assert!(s.is_empty());
-        let s = stamp(-0.5, 9.5, -0.5, 1.5, (5.2, 0.5), 4, (10, 10));
+        let s = rect(-0.5, 9.5, -0.5, 1.5, (5.2, 0.5), 4, (10, 10));
         assert_eq!((s.x, s.size, s.over_limit), ((4, 7), (10, 2), true));
         assert_eq!(s.drawn(), (4, 2));
         for v in [-2.5, -2.0, -0.0, 0.5, 1.0, 3.999999, 1e18, f64::NAN] {

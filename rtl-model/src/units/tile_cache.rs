@@ -32,6 +32,9 @@
 //! resident tile costs nothing beyond the unit's cycle), write-buffer
 //! capacity beyond the engine's queue.
 
+use crate::clock::Cycle;
+use crate::lru::Lru;
+
 /// State of one tile within the current warp.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TileState {
@@ -82,11 +85,8 @@ pub struct TileCacheCounters {
 pub struct TileCache {
     capacity: usize,
     state: Vec<TileState>,
-    /// Resident tiles (unordered) and, in step, their last use.
-    resident: Vec<u32>,
-    resident_use: Vec<u64>,
-    /// Per tile: its position in `resident` (`u32::MAX`: not resident).
-    pos: Vec<u32>,
+    /// Resident tiles in replacement order.
+    lru: Lru,
     /// Tiles holding a slot: resident or loading.
     held: usize,
     /// Counters since the cache was made.
@@ -99,9 +99,7 @@ impl TileCache {
         TileCache {
             capacity,
             state: vec![TileState::Untouched; tiles],
-            resident: Vec::new(),
-            resident_use: Vec::new(),
-            pos: vec![u32::MAX; tiles],
+            lru: Lru::new(tiles),
             held: 0,
             counters: TileCacheCounters::default(),
         }
@@ -122,11 +120,7 @@ impl TileCache {
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
         self.state.fill(TileState::Untouched);
-        for &t in &self.resident {
-            self.pos[t as usize] = u32::MAX;
-        }
-        self.resident.clear();
-        self.resident_use.clear();
+        self.lru.clear();
     }
 
     /// State of tile `t`.
@@ -138,12 +132,12 @@ impl TileCache {
     /// [`TileCache::access`] when tile `t` is resident (a hit, counted if
     /// `counted`): true. Otherwise false, and nothing changes.
     #[inline]
-    pub fn hit(&mut self, t: u32, now: u64, counted: bool) -> bool {
+    pub fn hit(&mut self, t: u32, now: Cycle, counted: bool) -> bool {
         let ti = t as usize;
         if self.state[ti] != TileState::Resident {
             return false;
         }
-        self.resident_use[self.pos[ti] as usize] = now;
+        self.lru.touch(t, now.get());
         if counted {
             self.counters.accesses += 1;
             self.counters.hits += 1;
@@ -156,12 +150,12 @@ impl TileCache {
     /// spilled tile is returned for the caller to write out (rule 4);
     /// `pinned` tiles are never spilled.
     #[inline]
-    pub fn access(&mut self, t: u32, now: u64, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
+    pub fn access(&mut self, t: u32, now: Cycle, counted: bool, pinned: &[u32]) -> (Lookup, Option<u32>) {
         let ti = t as usize;
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
-                self.resident_use[self.pos[ti] as usize] = now;
+                self.lru.touch(t, now.get());
                 Lookup::Hit
             }
             TileState::Loading => Lookup::Wait,
@@ -200,12 +194,10 @@ impl TileCache {
 
     /// A load of tile `t` has arrived.
     #[inline]
-    pub fn loaded(&mut self, t: u32, now: u64) {
+    pub fn loaded(&mut self, t: u32, now: Cycle) {
         debug_assert_eq!(self.state[t as usize], TileState::Loading);
         self.state[t as usize] = TileState::Resident;
-        self.pos[t as usize] = self.resident.len() as u32;
-        self.resident.push(t);
-        self.resident_use.push(now);
+        self.lru.insert(t, now.get());
     }
 
     /// Release tile `t` (rule 5): it must be resident.
@@ -216,28 +208,15 @@ impl TileCache {
     }
 
     fn remove_resident(&mut self, t: u32) {
-        let k = self.pos[t as usize];
-        if k != u32::MAX {
-            let k = k as usize;
-            self.resident.swap_remove(k);
-            self.resident_use.swap_remove(k);
-            if let Some(&moved) = self.resident.get(k) {
-                self.pos[moved as usize] = k as u32;
-            }
-            self.pos[t as usize] = u32::MAX;
+        if self.lru.contains(t) {
+            self.lru.remove(t);
         }
         self.held -= 1;
     }
 
     /// The unpinned resident tile least recently used (ties: lowest number).
-    fn victim(&self, pinned: &[u32]) -> Option<u32> {
-        let mut best: Option<(u64, u32)> = None;
-        for (&t, &u) in self.resident.iter().zip(&self.resident_use) {
-            if best.is_none_or(|b| (u, t) < b) && !pinned.contains(&t) {
-                best = Some((u, t));
-            }
-        }
-        best.map(|(_, t)| t)
+    fn victim(&mut self, pinned: &[u32]) -> Option<u32> {
+        self.lru.victim(|t| !pinned.contains(&t))
     }
 
     fn spill(&mut self, t: u32) {
@@ -254,20 +233,20 @@ mod tests {
     #[test]
     fn compulsory_then_hits_then_capacity_after_a_spill() {
         let mut c = TileCache::new(2, 4);
-        assert_eq!(c.access(0, 0, true, &[]), (Lookup::Compulsory, None));
-        assert_eq!(c.access(0, 1, true, &[]), (Lookup::Wait, None));
-        c.loaded(0, 1);
-        assert_eq!(c.access(0, 2, true, &[]).0, Lookup::Hit);
-        assert_eq!(c.access(1, 3, true, &[]).0, Lookup::Compulsory);
-        c.loaded(1, 3);
+        assert_eq!(c.access(0, Cycle(0), true, &[]), (Lookup::Compulsory, None));
+        assert_eq!(c.access(0, Cycle(1), true, &[]), (Lookup::Wait, None));
+        c.loaded(0, Cycle(1));
+        assert_eq!(c.access(0, Cycle(2), true, &[]).0, Lookup::Hit);
+        assert_eq!(c.access(1, Cycle(3), true, &[]).0, Lookup::Compulsory);
+        c.loaded(1, Cycle(3));
         // Full: tile 0 is least recently used and is spilled for tile 2.
-        assert_eq!(c.access(2, 4, true, &[]), (Lookup::Compulsory, Some(0)));
-        c.loaded(2, 5);
-        assert_eq!(c.access(0, 6, true, &[1, 2]), (Lookup::Full, None));
-        assert_eq!(c.access(0, 7, true, &[]), (Lookup::Capacity, Some(1)));
+        assert_eq!(c.access(2, Cycle(4), true, &[]), (Lookup::Compulsory, Some(0)));
+        c.loaded(2, Cycle(5));
+        assert_eq!(c.access(0, Cycle(6), true, &[1, 2]), (Lookup::Full, None));
+        assert_eq!(c.access(0, Cycle(7), true, &[]), (Lookup::Capacity, Some(1)));
         let k = &c.counters;
         assert_eq!((k.accesses, k.hits, k.misses_compulsory, k.misses_capacity, k.spills), (5, 1, 3, 1, 2));
-        c.loaded(0, 8);
+        c.loaded(0, Cycle(8));
         c.release(0);
         c.release(2);
         assert_eq!(c.occupancy(), 0);

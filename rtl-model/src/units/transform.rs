@@ -7,7 +7,7 @@
 //! the exact edge-splat corners and the better-reference mask.
 //!
 //! Ports: in, one reference sample `(x, y, 1/Z, slopes)` from the fetch
-//! unit; out, a [`Warped`] sample to kernel setup's line buffer.
+//! unit; out, a [`Transformed`] sample to kernel setup's line buffer.
 //!
 //! Throughput and latency: `transform_throughput` samples per cycle,
 //! `transform_latency` cycles (knobs; the engine models them with a
@@ -31,15 +31,26 @@
 //!    `n` the world normal from `(fx·∂x, fy·∂y, c0)`, `v` the vectors from
 //!    the surface point to the reference centres.
 //!
+//! Control ([`TransformStage`]): the pipeline is a [`Fifo`] of
+//! `transform_throughput · (transform_latency + 1)` slots and latency
+//! `transform_latency`. The fetch unit offers samples ([`TransformStage::accept`]);
+//! kernel setup takes them out when visible ([`TransformStage::take`]).
+//! The stage is *busy* in a cycle in which it accepted a sample, *stalled*
+//! (`fifo_full`) in one in which it refused one and accepted none, *idle*
+//! otherwise.
+//!
 //! Not modelled: fixed-point datapaths (FP64 arithmetic, FP32 storage, as
 //! in the golden model, so that the two agree bit for bit).
 
+use super::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
 use crate::camera::{Camera, WarpSetup};
+use crate::clock::Cycle;
+use crate::fifo::Fifo;
 use glam::{DMat3, DVec2, DVec3};
 
 /// A warped reference sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Warped {
+pub struct Transformed {
     /// Derived-image position (samples).
     pub pos: DVec2,
     /// Derived 1/Z.
@@ -68,7 +79,7 @@ fn geometric_focal(c: &Camera) -> f64 {
     (c.intrinsics.fx * c.intrinsics.fy).sqrt()
 }
 
-#[inline]
+#[inline(always)]
 fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
     let (a, b) = (dx * inv_f.0, dy * inv_f.1);
     a * a + b * b + 1.0
@@ -103,7 +114,7 @@ impl TransformUnit {
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if culled (behind the
     /// derived camera or not finite).
     #[inline]
-    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Warped> {
+    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
         let w = self.setup.warp(x, y, inv_z);
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
             return None;
@@ -112,7 +123,39 @@ impl TransformUnit {
         let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
         let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
         let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
-        Some(Warped { pos: w.position, inv_z: w.inv_z, e })
+        Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+    }
+
+    /// [`TransformUnit::warp`] of the run of samples `(x0 + k·dx, y0 +
+    /// k·dy)` with 1/Z `inv_z(k)`, `k < out.len()`: `out[k]` is the warp or
+    /// `None` where culled. The same operations as [`WarpSetup::warp`] in
+    /// the same order (the same bits; tested), without branches in the
+    /// arithmetic, so that the loop pipelines: the transform unit is one
+    /// pipeline streaming a line.
+    #[inline]
+    pub fn warp_run(
+        &self,
+        (x0, y0): (f64, f64),
+        (dx, dy): (f64, f64),
+        inv_z: impl Fn(usize) -> f64,
+        out: &mut [Option<Transformed>],
+    ) {
+        let s = &self.setup;
+        let (h, e) = (&s.h, s.e_hat);
+        let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
+        for (k, o) in out.iter_mut().enumerate() {
+            let (x, y) = (x0 + k as f64 * dx, y0 + k as f64 * dy);
+            let delta = s.s1 * inv_z(k);
+            // glam's DMat3 · DVec3: x_axis·x + y_axis·y + z_axis·1, then + ê·δ.
+            let row = |i: usize| h.x_axis[i] * x + h.y_axis[i] * y + h.z_axis[i] * 1.0 + e[i] * delta;
+            let (nx, ny, w) = (row(0), row(1), row(2));
+            let (px, py, iz) = (nx / w, ny / w, delta / (s.s2 * w));
+            let ok = (w > 0.0) & px.is_finite() & py.is_finite() & iz.is_finite();
+            let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
+            let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
+            let e = (r1 / (r2 * w * w)).sqrt() * self.focal_ratio;
+            *o = ok.then_some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e });
+        }
     }
 
     /// Exact edge corner `(sx, sy)` (rule 2); `None` if behind the camera.
@@ -172,5 +215,157 @@ impl TransformUnit {
             }
         }
         mask
+    }
+}
+
+/// A sample in the transform pipeline: its grid index (the reference's
+/// host layout) and the fetch interval it belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct InFlightSample {
+    /// Grid index of the sample (`HwReference`'s layout).
+    pub grid_index: u32,
+    /// Index of its fetch interval in the schedule.
+    pub interval: u32,
+}
+
+/// The transform unit's pipeline control for one warp (module doc).
+pub struct TransformStage {
+    pipe: Fifo<InFlightSample>,
+    /// Per sample (grid index): accepted in this warp.
+    transformed: Vec<u64>,
+    accepted: u32,
+    refused: bool,
+    samples: u64,
+    activity: Activity,
+}
+
+impl TransformStage {
+    /// A pipeline of `throughput` lanes and `latency` cycles over a
+    /// reference whose grid has `grid_len` samples, accounted by `activity`.
+    pub fn new(throughput: u32, latency: u32, grid_len: usize, activity: Activity) -> TransformStage {
+        let slots = throughput as usize * (latency as usize + 1);
+        TransformStage {
+            pipe: Fifo::new(slots, latency as u64),
+            transformed: vec![0; grid_len.div_ceil(64)],
+            accepted: 0,
+            refused: false,
+            samples: 0,
+            activity,
+        }
+    }
+
+    /// Offer a sample at `now`: accepted unless the pipeline is full (the
+    /// sample is then handed back and the fetch unit stalls).
+    #[inline]
+    pub fn accept(&mut self, now: Cycle, s: InFlightSample) -> Result<(), InFlightSample> {
+        match self.pipe.push(now, s) {
+            Ok(()) => {
+                let i = s.grid_index as usize;
+                self.transformed[i >> 6] |= 1 << (i & 63);
+                self.accepted += 1;
+                self.samples += 1;
+                Ok(())
+            }
+            Err(s) => {
+                self.refused = true;
+                Err(s)
+            }
+        }
+    }
+
+    /// Take the oldest sample whose transform is done at `now`.
+    #[inline]
+    pub fn take(&mut self, now: Cycle) -> Option<InFlightSample> {
+        self.pipe.pop(now)
+    }
+
+    /// The interval of the oldest sample still in the pipeline.
+    #[inline]
+    pub fn oldest_interval(&self) -> Option<usize> {
+        self.pipe.oldest().map(|s| s.interval as usize)
+    }
+
+    /// True if sample `grid_index` was accepted in this warp.
+    #[inline(always)]
+    pub fn has_transformed(&self, grid_index: usize) -> bool {
+        self.transformed[grid_index >> 6] >> (grid_index & 63) & 1 != 0
+    }
+
+    /// The stage's state in cycle `now`, after the fetch unit's offers of
+    /// that cycle.
+    #[inline]
+    pub fn tick(&mut self, now: Cycle) -> Tick {
+        let t = if self.accepted > 0 {
+            Tick::BUSY
+        } else if self.refused {
+            Tick::stall(StallReason::FifoFull)
+        } else {
+            Tick::IDLE
+        };
+        self.accepted = 0;
+        self.refused = false;
+        self.activity.record(now, t)
+    }
+
+    /// End the warp at `now`; the unit's cycles and (when recording) its
+    /// runs of states.
+    pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
+        self.activity.close(now);
+        (self.activity.cycles(), self.activity.take_runs())
+    }
+
+    /// State of the last tick.
+    pub fn state(&self) -> UnitState {
+        self.activity.state()
+    }
+
+    /// Samples accepted in this warp (samples).
+    pub fn samples(&self) -> u64 {
+        self.samples
+    }
+
+    /// No sample in the pipeline.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.pipe.is_empty()
+    }
+
+    /// Samples in the pipeline.
+    pub fn len(&self) -> usize {
+        self.pipe.len()
+    }
+
+    /// When the oldest sample becomes visible.
+    #[inline]
+    pub fn next_visible(&self) -> Option<Cycle> {
+        self.pipe.next_visible()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Intrinsics, Pose};
+    use glam::DQuat;
+
+    #[test]
+    fn a_run_warps_to_the_same_bits_as_one_sample_at_a_time() {
+        let k = Intrinsics { width: 64, height: 48, fx: 50.0, fy: 51.0, cx: 31.5, cy: 23.5 };
+        let src = Camera { intrinsics: k, pose: Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY } };
+        let dst = Camera {
+            intrinsics: k,
+            pose: Pose { position: DVec3::new(0.3, -0.1, 0.2), orientation: DQuat::from_rotation_y(0.2) },
+        };
+        let tu = TransformUnit::new(WarpSetup::new(&src, &dst), src, dst, vec![DVec3::ZERO], 0, 0.05);
+        let inv_z = |k: usize| if k % 7 == 3 { -2.0 } else { 0.1 + 0.37 * k as f64 };
+        for (start, step) in [((0.0, 5.0), (1.0, 0.0)), ((9.0, 40.0), (0.0, -1.0))] {
+            let mut out = [None; 40];
+            tu.warp_run(start, step, inv_z, &mut out);
+            for (j, o) in out.iter().enumerate() {
+                let (x, y) = (start.0 + j as f64 * step.0, start.1 + j as f64 * step.1);
+                assert_eq!(*o, tu.warp(x, y, inv_z(j)), "sample {j}");
+            }
+            assert!(out.iter().any(Option::is_none) && out.iter().any(Option::is_some));
+        }
     }
 }
