@@ -478,10 +478,10 @@ proptest! {
     }
 
     /// Reference frames: unpack(pack) equals golden `round_trip_reference`
-    /// bit for bit, with the same counters, except at the samples of rule 5
+    /// bit for bit, with the same counters, including the samples of rule 5
     /// (the plane reaches 1/Z <= 0 or a reciprocal that overflows at the
-    /// sample): there the hardware puts the sample at FAR_Z where golden
-    /// keeps its original depth. Invalid samples stay invalid, valid ones valid.
+    /// sample), which both put at FAR_Z. Invalid samples stay invalid,
+    /// valid ones valid.
     #[test]
     fn hardware_reference_round_trip_equals_golden((p, img) in reference_frame()) {
         let mut gs = golden::AbufferStats::default();
@@ -506,14 +506,13 @@ proptest! {
                     let i = img.index(px * ss + k % ss, py * ss + k / ss);
                     let same = got.colour[i].map(f32::to_bits) == want.colour[i].map(f32::to_bits)
                         && got.inv_z_slopes[i].map(f32::to_bits) == want.inv_z_slopes[i].map(f32::to_bits)
-                        && got.object_id[i] == want.object_id[i];
-                    prop_assert!(same, "sample {} differs beyond depth", i);
-                    if got.z[i].to_bits() != want.z[i].to_bits() {
-                        let f = frags.iter().find(|f| f.covers(k));
-                        prop_assert!(f.is_some());
-                        let z = 1.0 / f.unwrap().inv_z_at(ss, k);
-                        prop_assert!(!(z.is_finite() && z > 0.0), "sample {}: depth differs off rule 5", i);
-                        prop_assert_eq!((got.z[i], want.z[i]), (FAR_Z, img.z[i]));
+                        && got.object_id[i] == want.object_id[i]
+                        && got.z[i].to_bits() == want.z[i].to_bits();
+                    prop_assert!(same, "sample {} differs", i);
+                    // Rule 5: a plane past the horizon puts the sample at the far limit.
+                    if let Some(f) = frags.iter().find(|f| f.covers(k)) {
+                        let z = 1.0 / f.inv_z_at(ss, k);
+                        prop_assert!(z.is_finite() && z > 0.0 || got.z[i] == FAR_Z, "sample {}: rule 5", i);
                     }
                 }
             }

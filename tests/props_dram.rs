@@ -194,7 +194,7 @@ fn drive(cfg: DramConfig, reqs: &[Req], d: Driver) -> Result<Run, TestCaseError>
                 ev = ev.min(due[next].max(now + 1));
             }
             if ev != u64::MAX && ev > now + 1 {
-                dram.skip_to(Cycle(ev - 1));
+                dram.skip_to(Cycle(ev - 1), false);
                 if !m.in_flight.is_empty() {
                     m.outstanding_cycles += ev - 1 - now;
                 }

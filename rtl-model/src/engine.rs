@@ -99,6 +99,7 @@ pub struct Engine {
     cfg: EngineConfig,
     buffer: LineBuffer,
     record: bool,
+    skip: bool,
 }
 
 impl Engine {
@@ -114,13 +115,20 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
-        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false })
+        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, skip: true })
     }
 
     /// Record a [`Timeline`] of every frame from now on (or stop). Values
     /// and cycles do not change.
     pub fn record_timeline(&mut self, on: bool) {
         self.record = on;
+    }
+
+    /// Skip idle stretches (the default) or step every cycle. Stepping is
+    /// slow and exists to check that skipping is exact: every counter and
+    /// value must be the same either way (`tests/hw_skip_exact.rs`).
+    pub fn skip_idle(&mut self, on: bool) {
+        self.skip = on;
     }
 
     /// The configuration.
@@ -141,6 +149,7 @@ impl Engine {
         let mut f = DestFrame::new(dw, dh);
         let mut m = Machine {
             cfg,
+            skip: self.skip,
             dram: Dram::new(cfg.dram()),
             now: Cycle::ZERO,
             port: MemPort::default(),
@@ -193,6 +202,8 @@ struct WarpInput<'a> {
 /// and the destination cache.
 struct Machine<'c> {
     cfg: &'c EngineConfig,
+    /// Skip idle stretches ([`Engine::skip_idle`]).
+    skip: bool,
     dram: Dram<Tag>,
     now: Cycle,
     port: MemPort,
@@ -239,16 +250,33 @@ impl Machine<'_> {
         true
     }
 
+    /// The memory's next event after `now`: the next cycle if a request
+    /// is waiting and the DRAM has room (a unit may queue one in a cycle
+    /// it reports as a stall, such as a tile miss), else the next DRAM
+    /// completion.
+    #[inline]
+    fn memory_event(&self, now: Cycle) -> Option<Cycle> {
+        if !self.port.is_empty() && self.dram.has_room() {
+            return Some(now + 1);
+        }
+        self.dram.next_completion()
+    }
+
     /// Move to the next cycle, or jump to `next_event` when nothing moved
     /// (module doc, "Skipping"). Returns the cycles the states of this
     /// cycle last (1, or the skipped span).
     fn advance(&mut self, moved: bool, next_event: Option<Cycle>) -> u64 {
         let mut span = 1;
-        if !moved && let Some(t) = next_event.filter(|&t| t > self.now + 1) {
+        if self.skip
+            && !moved
+            && let Some(t) = next_event.filter(|&t| t > self.now + 1)
+        {
             span = t - self.now;
         }
         if span > 1 {
-            self.dram.skip_to(self.now + (span - 1));
+            // A waiting request is offered in every skipped cycle and
+            // refused (the DRAM is full: else the next cycle is an event).
+            self.dram.skip_to(self.now + (span - 1), !self.port.is_empty());
         }
         self.now += span;
         self.dram.tick(self.now);
@@ -266,7 +294,7 @@ impl Machine<'_> {
             if self.port.is_empty() && self.dram.outstanding() == 0 {
                 break;
             }
-            let next = self.dram.next_completion();
+            let next = self.memory_event(self.now);
             let before = self.now;
             let span = self.advance(arrived || issued, next);
             for u in &mut self.units {
@@ -289,6 +317,10 @@ impl Machine<'_> {
             // 1–2. Memory: completions, then one request.
             let mut moved = self.deliver(f, Some(&mut p.fetch.cache));
             moved |= self.port.issue(&mut self.dram, now);
+            // A request queued or a tile made resident in a stalled tick
+            // (a first-warp tile cleared on chip) changes what the next
+            // cycle can do: it counts as movement for the skip.
+            let marks = (self.port.queued(), self.cache.loads());
             let (frame, cache, port) = (&mut *f, &mut self.cache, &mut self.port);
             // 3. A-buffer packer.
             let fill_visits = p.fill.visits();
@@ -309,11 +341,12 @@ impl Machine<'_> {
             // 8. Fetch, then the transform pipeline's state.
             moved |= p.fetch.tick(now, &mut FetchPorts { transform: &mut p.transform, port }).moved;
             p.transform.tick(now);
+            moved |= marks != (self.port.queued(), self.cache.loads());
 
             if p.is_done(now) && self.port.writes_waiting() == 0 {
                 break;
             }
-            let next = if moved { None } else { p.next_event(now, self.dram.next_completion()) };
+            let next = if moved { None } else { p.next_event(now, self.memory_event(now)) };
             let span = self.advance(moved, next);
             if let Some(t) = &mut self.timeline {
                 for (o, v) in t.occupancy.iter_mut().zip(p.occupancy(&self.port, &self.cache)) {
@@ -425,14 +458,18 @@ impl<'s> Pipeline<'s> {
         ]
     }
 
-    /// The earliest event after a cycle in which nothing moved.
+    /// The earliest event after a cycle in which nothing moved: a packing
+    /// done, a DRAM completion, or an item of a FIFO becoming visible. An
+    /// item already visible is no event (its consumer did not take it and
+    /// will not until something else moves); counting it would walk a long
+    /// DRAM wait behind a blocked head cycle by cycle.
     fn next_event(&self, now: Cycle, dram: Option<Cycle>) -> Option<Cycle> {
         [
             self.packer.next_event(now),
             dram,
-            self.transform.next_visible(),
-            self.kernels.next_visible(),
-            self.stamps.next_visible(),
+            self.transform.next_visible_after(now),
+            self.kernels.next_visible_after(now),
+            self.stamps.next_visible_after(now),
         ]
         .into_iter()
         .flatten()

@@ -228,6 +228,15 @@ impl<T: Copy> Fifo<T> {
         self.items.front().map(|&(ready, _)| ready)
     }
 
+    /// The first cycle after `now` at which an item still in transit
+    /// becomes visible (items become visible in push order), if any: the
+    /// FIFO's next event when its consumer is blocked on what it already
+    /// sees.
+    #[inline]
+    pub fn next_visible_after(&self, now: Cycle) -> Option<Cycle> {
+        (0..self.items.len()).map(|i| self.items.get(i).0).find(|&ready| ready > now)
+    }
+
     /// Debug check that `now` is not before the latest push or pop.
     #[inline(always)]
     fn check_time(&self, now: Cycle) {
@@ -283,6 +292,12 @@ impl<E: Copy> Ring<E> {
             self.buf[at] = e;
         }
         self.len += 1;
+    }
+
+    /// The `i`-th item from the front (`i < len`).
+    #[inline(always)]
+    fn get(&self, i: usize) -> &E {
+        &self.buf[self.wrap(self.head + i)]
     }
 
     #[inline(always)]
@@ -354,6 +369,19 @@ mod tests {
         f.push(N, 1u8).unwrap();
         assert!(f.can_pop(N));
         assert_eq!(f.pop(N), Some(1));
+    }
+
+    #[test]
+    fn the_next_event_is_the_first_item_still_in_transit() {
+        let mut f: Fifo<u32> = Fifo::new(4, 3);
+        assert_eq!(f.next_visible_after(Cycle(0)), None);
+        f.push(Cycle(0), 1).unwrap();
+        f.push(Cycle(2), 2).unwrap();
+        // Item 1 visible from cycle 3 (blocked head), item 2 from cycle 5.
+        assert_eq!(f.next_visible(), Some(Cycle(3)));
+        assert_eq!(f.next_visible_after(Cycle(2)), Some(Cycle(3)));
+        assert_eq!(f.next_visible_after(Cycle(3)), Some(Cycle(5)));
+        assert_eq!(f.next_visible_after(Cycle(5)), None);
     }
 
     #[test]

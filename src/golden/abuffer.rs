@@ -243,6 +243,10 @@ fn for_each_pixel(width: u32, height: u32, ss: u32, mut f: impl FnMut(u32, u32, 
     }
 }
 
+/// Depth of an expanded reference sample whose plane has run past the
+/// horizon (1/Z <= 0 or a reciprocal that overflows), scene units.
+pub const FAR_Z: f32 = f32::MAX;
+
 /// Compress a reference frame's samples to fragments and expand them back
 /// (the round trip through memory). With `max_fragments == 0` the samples
 /// pass unchanged.
@@ -271,11 +275,13 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
         }
     });
     // A plane extrapolated to a sample can reach 1/Z <= 0 on a grazing
-    // surface: such a sample keeps its own depth (it is the fragment's
-    // anchor side, so this only happens after a merge).
+    // surface (only after a merge: the anchor sample is on its plane), or
+    // so close to 0 that the reciprocal overflows. Memory holds the plane,
+    // not the sample's own depth, so the sample goes past the horizon, at
+    // the far limit, as the hardware's unpack does.
     for i in out.valid.iter_ones().collect::<Vec<_>>() {
         if !(out.z[i].is_finite() && out.z[i] > 0.0) {
-            out.z[i] = img.z[i];
+            out.z[i] = FAR_Z;
         }
     }
     out

@@ -10,6 +10,7 @@
 pub mod csv;
 pub mod images;
 pub mod table;
+pub mod timeline;
 
 use serde_json::{Map, Value, json};
 

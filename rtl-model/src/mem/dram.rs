@@ -270,13 +270,20 @@ impl<T: Copy> Dram<T> {
 
     /// Jump from the current cycle to `now`, as if `tick` had been called
     /// for every cycle in between, when the caller knows nothing completes
-    /// before `now` (an idle stretch: see [`Dram::next_completion`]).
-    pub fn skip_to(&mut self, now: Cycle) {
+    /// before `now` (an idle stretch: see [`Dram::next_completion`]). With
+    /// `refusing`, a request was offered and refused in each cycle after
+    /// the current one up to `now` (they count as refused cycles).
+    pub fn skip_to(&mut self, now: Cycle, refusing: bool) {
         let prev = self.now.expect("skip_to before the first tick");
         debug_assert!(now > prev, "skip_to({now}) from {prev}");
         debug_assert!(self.next_completion().is_none_or(|c| c >= now), "a completion would be skipped");
+        debug_assert!(!refusing || !self.has_room(), "a request refused with room");
         if !self.in_flight.is_empty() {
             self.counters.outstanding_cycles += now - prev;
+        }
+        if refusing {
+            self.counters.refused_cycles += now - prev;
+            self.last_refused = Some(now);
         }
         self.now = Some(now);
     }
@@ -285,6 +292,13 @@ impl<T: Copy> Dram<T> {
     #[inline]
     pub fn next_completion(&self) -> Option<Cycle> {
         self.in_flight.front().map(|f| f.done)
+    }
+
+    /// True if fewer than `max_outstanding` requests are outstanding (a
+    /// request in a later cycle would be accepted).
+    #[inline]
+    pub fn has_room(&self) -> bool {
+        self.in_flight.len() < self.cfg.max_outstanding
     }
 
     /// True if a request at `now` would be accepted.

@@ -123,12 +123,13 @@ impl MemPort {
     #[inline(never)]
     fn issue_queued(&mut self, dram: &mut Dram<Tag>, now: Cycle) -> bool {
         for q in [&mut self.demand, &mut self.writes, &mut self.prefetch, &mut self.output] {
+            // 0-byte requests are dropped; the next request of the same
+            // queue is the head then (rule 1: a lower queue never passes).
+            while q.front().is_some_and(|r| r.bytes == 0) {
+                q.pop_front();
+                self.queued -= 1;
+            }
             if let Some(r) = q.front() {
-                if r.bytes == 0 {
-                    q.pop_front();
-                    self.queued -= 1;
-                    continue;
-                }
                 return match dram.request(now, r.client, r.access, r.bytes, r.tag) {
                     Ok(()) => {
                         q.pop_front();

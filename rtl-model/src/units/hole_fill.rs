@@ -57,7 +57,9 @@
 //!    taps is not resident (stall `tile`; tap tiles still untouched or
 //!    already released in this warp are not waited for). A destination
 //!    cache look-up is counted once when the cursor enters a tile, and once
-//!    per look-up of a tap tile. Every visit, hole or surface, costs a slot.
+//!    per hole for each distinct tile holding its taps (a retry after a
+//!    tap miss is not counted again). Every visit, hole or surface, costs
+//!    a slot.
 //!
 //! Not modelled: the fixed-point widths of the planes (plane 6 is `f32`,
 //! the accumulation `f64`, the distance 8 bits wide — the golden model's
@@ -291,6 +293,9 @@ pub struct HoleFillStage {
     visits: u64,
     /// The tile the cursor is in (its look-up counted on entry).
     fill_tile: Option<u32>,
+    /// The current sample's tap look-ups were made and one missed: the
+    /// retry is not counted again.
+    tap_retry: bool,
     activity: Activity,
 }
 
@@ -298,7 +303,7 @@ impl HoleFillStage {
     /// The pass of `unit`, `lanes` samples per cycle, accounted by
     /// `activity`.
     pub fn new(unit: HoleFillUnit, lanes: u32, activity: Activity) -> HoleFillStage {
-        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, activity }
+        HoleFillStage { unit, lanes, line: 0, pos: 0, visits: 0, fill_tile: None, tap_retry: false, activity }
     }
 
     /// Samples visited so far.
@@ -342,22 +347,35 @@ impl HoleFillStage {
             if !io.frame.fill_valid[i] {
                 // Taps read tiles visited earlier: they must be on chip.
                 let mut ready = true;
+                // Each tap tile is looked up once per sample, however many
+                // of the taps fall in it.
+                let (mut seen, mut n_seen) = ([u32::MAX; 8], 0);
                 for (tx, ty) in HoleFillUnit::tap_positions(&line, x, y, &self.unit.params) {
                     if tx < 0 || ty < 0 || tx >= dw as i64 || ty >= dh as i64 {
                         continue;
                     }
                     let tt = io.cache.tile_of(tx as u32, ty as u32);
-                    if tt == t || matches!(io.cache.state(tt), TileState::Untouched | TileState::Released) {
+                    if tt == t
+                        || seen[..n_seen].contains(&tt)
+                        || matches!(io.cache.state(tt), TileState::Untouched | TileState::Released)
+                    {
                         continue;
                     }
-                    if !io.cache.want(now, tt, true, &[t, tt], io.frame, io.port) {
+                    if n_seen < seen.len() {
+                        seen[n_seen] = tt;
+                        n_seen += 1;
+                    }
+                    // A retry of the same sample's taps is not counted again.
+                    if !io.cache.want(now, tt, !self.tap_retry, &[t, tt], io.frame, io.port) {
                         ready = false;
                     }
                 }
                 if !ready {
+                    self.tap_retry = true;
                     stalled = StallReason::Tile;
                     break;
                 }
+                self.tap_retry = false;
             }
             self.unit.fill_sample(io.frame, &line, x, y);
             self.visits += 1;

@@ -24,7 +24,8 @@
 //!    `rects_per_cycle` kernels from the kernel FIFO, but only while the
 //!    stamp FIFO to the compositor offers room (it has no output register,
 //!    so it accepts a kernel only when its output is ready): otherwise it
-//!    stalls on `fifo_full`. A kernel whose stamp is empty after clipping
+//!    stalls on `fifo_full`; with a kernel still in the kernel FIFO's
+//!    transit it stalls on `upstream` (as the compositor does). A kernel whose stamp is empty after clipping
 //!    takes a slot, produces nothing and is done. A non-empty stamp gets
 //!    the flat candidate: the kernel's colour, 1/Z and fill colour, the
 //!    derived slopes (from the transform unit, on request) and the
@@ -239,6 +240,9 @@ impl<'s> RasterStage<'s> {
             Tick::BUSY
         } else if blocked {
             Tick::stall(StallReason::FifoFull)
+        } else if !io.input.is_empty() {
+            // A kernel still in the kernel FIFO's transit.
+            Tick::stall(StallReason::Upstream)
         } else {
             Tick::IDLE
         };

@@ -340,6 +340,12 @@ impl TransformStage {
     pub fn next_visible(&self) -> Option<Cycle> {
         self.pipe.next_visible()
     }
+
+    /// The first cycle after `now` at which a sample in flight completes.
+    #[inline]
+    pub fn next_visible_after(&self, now: Cycle) -> Option<Cycle> {
+        self.pipe.next_visible_after(now)
+    }
 }
 
 #[cfg(test)]
