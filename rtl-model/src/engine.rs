@@ -238,9 +238,11 @@ impl Machine<'_> {
         }
         while let Some((tag, _)) = self.dram.completed(self.now) {
             match tag {
-                Tag::Block(b) => {
-                    if let Some(s) = src.as_deref_mut() {
-                        s.arrived(b, self.now);
+                Tag::Block { block, warp } => {
+                    if let Some(s) = src.as_deref_mut()
+                        && s.warp == warp
+                    {
+                        s.arrived(block, self.now);
                     }
                 }
                 Tag::Tile { tile, fresh } => self.cache.arrived(self.now, tile, fresh, f),
@@ -411,7 +413,7 @@ impl<'s> Pipeline<'s> {
     ) -> Pipeline<'s> {
         let (r, tu, sched) = (w.r, w.tu, &plan.sched);
         let side = cfg.tile_size / cfg.supersample;
-        let cache = SourceCache::new(
+        let mut cache = SourceCache::new(
             cfg.source_cache_bytes,
             r.samples.width,
             r.samples.height,
@@ -419,6 +421,7 @@ impl<'s> Pipeline<'s> {
             side,
             |bx, by| r.packed.bytes_in_pixels(bx * side, by * side, (bx + 1) * side, (by + 1) * side),
         );
+        cache.warp = w.number as u32;
         let (thr, rate) = (cfg.transform_throughput, cfg.rects_per_cycle);
         let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);
         let a = || Activity::starting(now, record);

@@ -111,7 +111,7 @@ fn prefetch_queues_the_blocks_of_the_current_and_the_next_interval_once() {
         }
         port.issue(&mut dram, Cycle(k));
     }
-    assert_eq!(tags, [Tag::Block(0), Tag::Block(1), Tag::Block(2)]);
+    assert_eq!(tags, [0, 1, 2].map(|block| Tag::Block { block, warp: 0 }));
 }
 
 #[test]

@@ -66,10 +66,10 @@ fn one_request_a_cycle_by_priority_and_oldest_first() {
     let mut d = dram(0, 16);
     let mut p = MemPort::default();
     p.output(req(Client::Output, 32, Tag::Output));
-    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block(1)));
+    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block { block: 1, warp: 0 }));
     p.write(req(Client::TileWriteBack, 32, Tag::Write));
     p.demand(req(Client::TileFill, 32, Tag::Tile { tile: 1, fresh: true }));
-    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block(2)));
+    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block { block: 2, warp: 0 }));
     p.demand(req(Client::TileFill, 32, Tag::Tile { tile: 2, fresh: false }));
     assert_eq!((p.queued(), p.writes_waiting()), (6, 1));
     let mut done = Vec::new();
@@ -82,8 +82,8 @@ fn one_request_a_cycle_by_priority_and_oldest_first() {
             Tag::Tile { tile: 1, fresh: true },
             Tag::Tile { tile: 2, fresh: false },
             Tag::Write,
-            Tag::Block(1),
-            Tag::Block(2),
+            Tag::Block { block: 1, warp: 0 },
+            Tag::Block { block: 2, warp: 0 },
             Tag::Output
         ]
     );
@@ -96,7 +96,7 @@ fn a_refused_head_issues_nothing_and_lower_queues_do_not_bypass_it() {
     let mut d = dram(12, 1);
     let mut p = MemPort::default();
     let mut done = Vec::new();
-    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block(0)));
+    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block { block: 0, warp: 0 }));
     assert_eq!(run(&mut d, &mut p, 0, 1, &mut done), [0]);
     // Completes at 0 + 12 + 2 = 14; until then the DRAM is full.
     p.output(req(Client::Output, 32, Tag::Output));
@@ -109,7 +109,7 @@ fn a_refused_head_issues_nothing_and_lower_queues_do_not_bypass_it() {
     let issued = run(&mut d, &mut p, 14, 60, &mut done);
     assert_eq!(issued, [14, 28]);
     let tags: Vec<Tag> = done.iter().map(|d| d.1).collect();
-    assert_eq!(tags, [Tag::Block(0), Tag::Tile { tile: 3, fresh: true }, Tag::Output]);
+    assert_eq!(tags, [Tag::Block { block: 0, warp: 0 }, Tag::Tile { tile: 3, fresh: true }, Tag::Output]);
 }
 
 #[test]
@@ -117,11 +117,11 @@ fn a_zero_byte_request_is_dropped_without_reaching_the_dram() {
     let mut d = dram(0, 16);
     let mut p = MemPort::default();
     p.write(req(Client::TileWriteBack, 0, Tag::Write));
-    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block(4)));
+    p.prefetch(req(Client::ReferenceFetch, 32, Tag::Block { block: 4, warp: 0 }));
     let mut done = Vec::new();
     // The dropped write costs no cycle: the prefetch issues at once.
     assert_eq!(run(&mut d, &mut p, 0, 10, &mut done), [0]);
-    assert_eq!(done.iter().map(|d| d.1).collect::<Vec<_>>(), [Tag::Block(4)]);
+    assert_eq!(done.iter().map(|d| d.1).collect::<Vec<_>>(), [Tag::Block { block: 4, warp: 0 }]);
     assert_eq!((d.counters().requests, d.counters().bytes_written), (1, 0));
     assert!(p.is_empty());
 }

@@ -29,8 +29,16 @@ use std::collections::VecDeque;
 /// What a DRAM request is for, returned with its completion.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Tag {
-    /// A reference block read for the source cache (block number).
-    Block(u32),
+    /// A reference block read for the source cache: the block number and
+    /// the number of the warp that asked (a prefetch still in flight when
+    /// its warp ends is dropped on arrival, not given to the next warp's
+    /// cache).
+    Block {
+        /// The block.
+        block: u32,
+        /// The warp's number in the frame's warp order.
+        warp: u32,
+    },
     /// A destination tile load (tile number); `fresh` for a compulsory
     /// load (the tile's cache-only planes are reset on arrival), not for a
     /// raw reload after a spill.
@@ -159,7 +167,7 @@ mod tests {
         let mut d: Dram<Tag> = Dram::new(cfg);
         let mut p = MemPort::default();
         p.output(req(Client::Output, Tag::Output));
-        p.prefetch(req(Client::ReferenceFetch, Tag::Block(7)));
+        p.prefetch(req(Client::ReferenceFetch, Tag::Block { block: 7, warp: 0 }));
         p.write(Req { bytes: 0, ..req(Client::TileWriteBack, Tag::Write) });
         p.demand(req(Client::TileFill, Tag::Tile { tile: 3, fresh: true }));
         let mut order = vec![];
@@ -172,7 +180,7 @@ mod tests {
             assert!(!p.issue(&mut d, Cycle(t)), "a second request in cycle {t}");
         }
         // The 0-byte write was dropped, never issued.
-        assert_eq!(order, [Tag::Tile { tile: 3, fresh: true }, Tag::Block(7), Tag::Output]);
+        assert_eq!(order, [Tag::Tile { tile: 3, fresh: true }, Tag::Block { block: 7, warp: 0 }, Tag::Output]);
         assert!(p.is_empty());
     }
 }

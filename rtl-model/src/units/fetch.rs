@@ -86,6 +86,9 @@ pub struct SourceCache {
     row_block: Vec<u32>,
     /// Counters.
     pub counters: SourceCacheCounters,
+    /// The warp this cache serves (its number in the frame's warp order),
+    /// carried by its read requests (`Tag::Block`).
+    pub warp: u32,
 }
 
 impl SourceCache {
@@ -114,6 +117,7 @@ impl SourceCache {
             col_block: (0..w).map(|x| x / side).collect(),
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
+            warp: 0,
         }
     }
 
@@ -257,7 +261,7 @@ impl<'s> FetchStage<'s> {
                 client: Client::ReferenceFetch,
                 access: Access::Read,
                 bytes: cache.bytes(b),
-                tag: Tag::Block(b),
+                tag: Tag::Block { block: b, warp: cache.warp },
             });
         }
     }
