@@ -19,8 +19,11 @@
 //! then an OpenEXR file, read as a reference image and as ground truth),
 //! `pfm`, `obj` (a mesh, then placed and hit by a few rays), `scene` (a scene
 //! description naming only `bundled:` files, then its camera path and a
-//! 4x3 render), `hw_config` (a hardware configuration file) and
-//! `middlebury_calib` (`calib.txt`).
+//! 4x3 render), `hw_config` (a hardware configuration file),
+//! `middlebury_calib` (`calib.txt`), `results_csv` (a sweep's
+//! `results.csv`, read as `postwarp chart` reads it, its charts drawn as
+//! SVG) and `report_json` (a `report.json` of any version, read as
+//! `postwarp::report::load` reads it).
 
 use crate::import::middlebury::parse_calib;
 use crate::import::pfm::parse_pfm;
@@ -39,7 +42,17 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Every target, by the name of its directory under `fuzz/corpus/`.
-pub const TARGETS: [&str; 7] = ["trace_manifest", "exr_image", "pfm", "obj", "scene", "hw_config", "middlebury_calib"];
+pub const TARGETS: [&str; 9] = [
+    "trace_manifest",
+    "exr_image",
+    "pfm",
+    "obj",
+    "scene",
+    "hw_config",
+    "middlebury_calib",
+    "results_csv",
+    "report_json",
+];
 
 /// Stem of the file name every target gives its input in messages.
 pub const INPUT_NAME: &str = "fuzz-input";
@@ -54,6 +67,8 @@ pub fn run(name: &str, data: &[u8]) -> Result<(), String> {
         "scene" => scene(data),
         "hw_config" => hw_config(data),
         "middlebury_calib" => middlebury_calib(data),
+        "results_csv" => results_csv(data),
+        "report_json" => report_json(data),
         _ => panic!("unknown fuzz target `{name}` (known: {})", TARGETS.join(", ")),
     }
 }
@@ -181,6 +196,10 @@ pub fn hw_config(data: &[u8]) -> Result<(), String> {
     let c = crate::run::hw_config_toml::from_text(text(data, file)?, file).map_err(|e| format!("{e:#}"))?;
     let json = crate::run::hw_config_toml::to_json(&c);
     assert_eq!(json.as_object().map(|m| m.len()), Some(postwarp_rtl::config::KNOBS.len()));
+    // `simulate --dump-config` writes a file `--config` reads back to it.
+    let dumped = crate::run::hw_config_toml::dump(&c, "fuzz");
+    let back = crate::run::hw_config_toml::from_text(&dumped, file).unwrap_or_else(|e| panic!("{e:#}\n{dumped}"));
+    assert_eq!(back, c, "dump then read changed the configuration");
     Ok(())
 }
 
@@ -195,5 +214,39 @@ pub fn middlebury_calib(data: &[u8]) -> Result<(), String> {
     }
     let (l, r) = (c.left_camera(), c.right_camera());
     assert!(l.pose.position.is_finite() && r.pose.position.is_finite());
+    Ok(())
+}
+
+/// A `results.csv`: read as `postwarp chart` reads it; accepted ones give
+/// charts that draw (as SVG; bounded axes whatever the numbers).
+pub fn results_csv(data: &[u8]) -> Result<(), String> {
+    let file = Path::new("fuzz-input.csv");
+    let t = crate::sweep::results::read_csv(text(data, file)?).map_err(|e| format!("{}:{e}", file.display()))?;
+    assert!(t.rows.iter().all(|r| r.cells.len() == t.header.len()), "a ragged row was accepted");
+    let charts = crate::chart::charts_from_table(&t);
+    for (_, c) in charts.iter().take(2) {
+        crate::chart::scatter::render_svg(c).map_err(|e| format!("{}: {e}", file.display()))?;
+    }
+    for (_, c) in crate::chart::stability::stress_charts(&t).iter().take(1) {
+        crate::chart::stability::render_svg(c).map_err(|e| format!("{}: {e}", file.display()))?;
+    }
+    Ok(())
+}
+
+/// A `report.json` of any version; accepted ones are version 2 and read
+/// back to the same report when written again.
+pub fn report_json(data: &[u8]) -> Result<(), String> {
+    let file = Path::new("fuzz-input.json");
+    let r = crate::report::parse(text(data, file)?, file).map_err(|e| format!("{e:#}"))?;
+    let again = |v: serde_json::Value| {
+        let text = serde_json::to_string(&v).expect("reports serialize");
+        crate::report::parse(&text, file).unwrap_or_else(|e| panic!("a written report does not read back: {e:#}"))
+    };
+    let back = match &r {
+        crate::report::Report::Golden(g) => again(serde_json::to_value(g).expect("serializes")),
+        crate::report::Report::Method(m) => again(serde_json::to_value(m).expect("serializes")),
+        crate::report::Report::Simulate(s) => again(serde_json::to_value(s).expect("serializes")),
+    };
+    assert_eq!(back, r, "write then read changed the report");
     Ok(())
 }

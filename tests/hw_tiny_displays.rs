@@ -27,8 +27,7 @@ fn identical(scene: &str, (w, h, ss, fragments): (u32, u32, u32, u32)) -> (u64, 
     let tile_size = if d.tile_size % ss == 0 { d.tile_size } else { 4 * ss };
     let cfg = EngineConfig { max_fragments: fragments, tile_size, ..d };
     let r = measure_hardware(&trace, &cfg, None, &indicatif::ProgressBar::hidden()).unwrap();
-    let total = &r.report["total"];
-    (total["identical_frames"].as_u64().unwrap(), total["frames"].as_u64().unwrap())
+    (r.report.total.identical_frames, r.report.total.frames)
 }
 
 fn case() -> impl Strategy<Value = (u32, u32, u32, u32)> {

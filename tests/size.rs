@@ -133,8 +133,14 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}{text}", String::from_utf8_lossy(&o.stderr));
     assert!(text.contains("smallest configuration") && text.contains("dest_cache_bytes = "), "{text}");
-    // The configuration is loadable by `simulate --config`.
+    // The configuration is loadable by `simulate --config`, and says what
+    // its quality figure was scored against.
     let toml = std::fs::read_to_string(out.join("config.toml")).unwrap();
+    assert!(
+        toml.contains("# quality: mean luma PSNR") && toml.contains("against the ground truth of traces/"),
+        "{toml}"
+    );
+    assert!(toml.contains("(rendered at 4x4)"), "{toml}");
     let cfg = postwarp::run::hw_config_toml::from_text(&toml, &out.join("config.toml")).unwrap();
     let (head, rows) = table(&out);
     let c = |r: &Vec<String>, n: &str| r[col(&head, n)].clone();

@@ -7,6 +7,8 @@ use postwarp::trace::{
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
 use std::path::Path;
 
+mod common;
+
 fn camera(w: u32, h: u32, x: f64, yaw: f64) -> Camera {
     Camera {
         intrinsics: Intrinsics { width: w, height: h, fx: 20.5, fy: 20.25, cx: (w as f64 - 1.0) / 2.0, cy: 3.1 },
@@ -96,7 +98,7 @@ derived 0 time=0.1 refs=0 fx=20 fy=20 cx=1.5 cy=1 position=0.1,0,0 orientation=0
 fn parse_with(n: usize, line: &str) -> TraceError {
     let mut lines: Vec<&str> = GOOD.lines().collect();
     lines[n - 1] = line;
-    let text = lines.join("\n");
+    let text = lines.join("\n") + "\n";
     parse_manifest(&text, Path::new("t/postwarp.trace")).expect_err(line)
 }
 
@@ -218,7 +220,7 @@ fn image_of_the_wrong_size_is_an_error() {
 fn missing_manifest_is_an_error_not_a_panic() {
     let dir = tempfile::tempdir().unwrap();
     let msg = Trace::open(&dir.path().join("nothing")).unwrap_err().to_string();
-    assert!(msg.contains("nothing") && msg.contains("cannot read"), "{msg}");
+    assert!(msg.contains("nothing: does not exist; expected the trace manifest"), "{msg}");
     let empty = dir.path().join("empty.trace");
     std::fs::write(&empty, "").unwrap();
     let msg = Trace::open(&empty).unwrap_err().to_string();
@@ -369,4 +371,60 @@ fn multi_part_or_subsampled_images_are_refused() {
     }
     let msg = decode(&b, (12, 8)).unwrap_err();
     assert!(msg.contains("channel `dinvz_dx` is subsampled (2x2)"), "{msg}");
+}
+
+/// A manifest cut off mid-line (the example of issue 17: five of six
+/// derived frames gone, the last orientation cut mid-number) is an error at
+/// the cut; one cut at a line break still ends in one, so only mid-line
+/// cuts are caught this way, and those are what an interrupted copy leaves.
+#[test]
+fn a_manifest_cut_mid_line_is_an_error_at_the_cut() {
+    let dir = small_trace_dir();
+    let text = std::fs::read_to_string(dir.path().join("postwarp.trace")).unwrap();
+    let cut = &text[..text.rfind("orientation=").unwrap() + "orientation=0.9".len()];
+    let lines = cut.lines().count();
+    let e = parse_manifest(cut, Path::new("t/postwarp.trace")).unwrap_err();
+    assert_eq!(e.line, Some(lines), "{e}");
+    assert!(e.to_string().contains("cut off (truncated)"), "{e}");
+    // Cut in the middle of a statement's fields: the same, not "missing field".
+    let cut = &text[..text.rfind(" fx=").unwrap()];
+    let e = parse_manifest(cut, Path::new("t/postwarp.trace")).unwrap_err();
+    assert!(e.to_string().contains("cut off"), "{e}");
+    // An earlier error is still reported as itself.
+    let bad = cut.replacen("display width=4", "display width=0", 1);
+    let e = parse_manifest(&bad, Path::new("t/postwarp.trace")).unwrap_err();
+    assert_eq!(e.line, Some(3), "{e}");
+}
+
+/// Only regular files are opened: a directory or a symbolic-link loop given
+/// where an image is expected is named for what it is, a FIFO manifest is
+/// refused without blocking, a byte-order mark is named.
+#[test]
+fn inputs_that_are_not_regular_files_are_named_for_what_they_are() {
+    let dir = small_trace_dir();
+    let truth = dir.path().join("truth/0000.exr");
+    std::fs::remove_file(&truth).unwrap();
+    std::fs::create_dir(&truth).unwrap();
+    let msg = Trace::open(dir.path()).unwrap_err().to_string();
+    assert!(msg.contains("truth/0000.exr: is a directory; expected the image file"), "{msg}");
+    assert!(msg.contains("postwarp.trace:6:"), "{msg}");
+    #[cfg(unix)]
+    {
+        std::fs::remove_dir(&truth).unwrap();
+        std::os::unix::fs::symlink(&truth, &truth).unwrap();
+        let msg = Trace::open(dir.path()).unwrap_err().to_string();
+        assert!(msg.contains("symbolic link that cannot be resolved"), "{msg}");
+        let fifo = dir.path().join("fifo.trace");
+        assert!(std::process::Command::new("mkfifo").arg(&fifo).status().unwrap().success());
+        // Bounded: a reader that opened it would get end of file, not hang.
+        let msg = common::fifo::unblocked(&fifo, || Trace::open(&fifo).unwrap_err().to_string());
+        assert!(msg.contains("fifo.trace: is a FIFO (named pipe); expected the trace manifest"), "{msg}");
+    }
+    let m = dir.path().join("postwarp.trace");
+    let text = std::fs::read_to_string(&m).unwrap();
+    std::fs::write(&m, format!("\u{feff}{text}")).unwrap();
+    let msg = Trace::open(dir.path()).unwrap_err().to_string();
+    assert!(msg.contains("byte-order mark"), "{msg}");
+    let e = parse_manifest(&format!("\u{feff}{text}"), &m).unwrap_err();
+    assert!(e.to_string().contains(":1: line 1 starts with a UTF-8 byte-order mark"), "{e}");
 }

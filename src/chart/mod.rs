@@ -27,29 +27,80 @@
 //! 6. Same CSV, same bytes. Charts are written atomically; chart files of
 //!    an earlier run that this CSV no longer gives are removed.
 
+pub mod axis;
 pub mod font;
 pub mod pareto;
 pub mod scatter;
 pub mod stability;
 pub mod style;
 
+use crate::sweep::point::Metrics;
+use crate::sweep::results::{ResultsTable, read_csv};
 use anyhow::Context;
 use pareto::Better;
 use scatter::{Scatter, Series};
 use std::path::{Path, PathBuf};
 
-/// Quality columns: (column, axis label, short name, better).
-pub const QUALITIES: &[(&str, &str, &str, Better)] = &[
-    ("psnr_luma_db", "luma PSNR (dB), higher is better", "luma PSNR", Better::Higher),
-    ("ssim_luma", "luma SSIM (1), higher is better", "SSIM", Better::Higher),
-    ("flip_mean", "mean FLIP (1), lower is better", "FLIP", Better::Lower),
+/// A quantity a chart plots: its `results.csv` column (for file names),
+/// the axis label with its unit, a short name for titles, and how it is
+/// read from a row's [`Metrics`].
+pub struct Measure {
+    /// The column (a [`Metrics`] field).
+    pub column: &'static str,
+    /// Axis label: what it is, with its unit.
+    pub label: &'static str,
+    /// Short name for titles.
+    pub short: &'static str,
+    /// The value in a row.
+    pub value: fn(&Metrics) -> Option<f64>,
+}
+
+/// Qualities, with which direction is better.
+pub const QUALITIES: &[(Measure, Better)] = &[
+    (
+        Measure {
+            column: "psnr_luma_db",
+            label: "luma PSNR (dB), higher is better",
+            short: "luma PSNR",
+            value: |m| m.psnr_luma_db,
+        },
+        Better::Higher,
+    ),
+    (
+        Measure {
+            column: "ssim_luma",
+            label: "luma SSIM (1), higher is better",
+            short: "SSIM",
+            value: |m| m.ssim_luma,
+        },
+        Better::Higher,
+    ),
+    (
+        Measure { column: "flip_mean", label: "mean FLIP (1), lower is better", short: "FLIP", value: |m| m.flip_mean },
+        Better::Lower,
+    ),
 ];
 
-/// Cost columns: (column, axis label, short name).
-pub const COSTS: &[(&str, &str, &str)] = &[
-    ("host_ms_per_frame", "host time per frame (ms, one core, median of runs)", "host time"),
-    ("cycles_per_frame", "engine cycles per frame (cycles)", "cycles"),
-    ("dram_gbps_at_target_rate", "DRAM bandwidth at the target frame rate (GB/s)", "DRAM bandwidth"),
+/// Costs.
+pub const COSTS: &[Measure] = &[
+    Measure {
+        column: "host_ms_per_frame",
+        label: "host time per frame (ms, one core, median of runs)",
+        short: "host time",
+        value: |m| m.host_ms_per_frame,
+    },
+    Measure {
+        column: "cycles_per_frame",
+        label: "engine cycles per frame (cycles)",
+        short: "cycles",
+        value: |m| m.cycles_per_frame,
+    },
+    Measure {
+        column: "dram_gbps_at_target_rate",
+        label: "DRAM bandwidth at the target frame rate (GB/s)",
+        short: "DRAM bandwidth",
+        value: |m| m.dram_gbps_at_target_rate,
+    },
 ];
 
 /// File-name form of a trace label (module rule 4).
@@ -57,51 +108,50 @@ pub fn file_label(label: &str) -> String {
     label.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.=".contains(c) { c } else { '_' }).collect()
 }
 
+/// Check the text of a `results.csv` as the charts read it (errors are
+/// `LINE: message`).
+pub fn check_csv(csv: &str) -> Result<(), String> {
+    read_csv(csv).map(|_| ())
+}
+
 /// Every chart `csv` (the text of a `results.csv`) gives, with its file
 /// stem, in order: trace (first appearance), cost, quality.
 pub fn charts_from_csv(csv: &str) -> Result<Vec<(String, Scatter)>, String> {
-    let rows = crate::report::csv::parse(csv)?;
-    let Some((header, rows)) = rows.split_first() else { return Ok(Vec::new()) };
-    let col =
-        |name: &str| header.iter().position(|h| h == name).ok_or_else(|| format!("results CSV has no `{name}` column"));
-    let (c_spec, c_trace, c_method, c_fill) = (col("spec")?, col("trace")?, col("method")?, col("hole_fill")?);
-    // Knob columns: between `runs` and `point` (docs/sweep.md).
-    let knob_cols: Vec<usize> = match (col("runs"), col("point")) {
-        (Ok(a), Ok(b)) if a < b => (a + 1..b).collect(),
-        _ => Vec::new(),
-    };
-    let cell = |r: &Vec<String>, c: usize| r.get(c).cloned().unwrap_or_default();
-    let num = |r: &Vec<String>, c: usize| r.get(c).and_then(|v| v.parse::<f64>().ok()).filter(|v| v.is_finite());
-    let series_name = |r: &Vec<String>| {
-        let (m, f) = (cell(r, c_method), cell(r, c_fill));
-        if f.is_empty() { m } else { format!("{m} + {f}") }
+    Ok(charts_from_table(&read_csv(csv)?))
+}
+
+/// Every chart of a read `results.csv` (see [`charts_from_csv`]).
+pub fn charts_from_table(t: &ResultsTable) -> Vec<(String, Scatter)> {
+    let knob_cols: Vec<usize> = t.knob_columns().collect();
+    let series_name = |r: &crate::sweep::results::ResultsRow| {
+        let (m, f) = (t.cell(r, "method"), t.cell(r, "hole_fill"));
+        if f.is_empty() { m.to_string() } else { format!("{m} + {f}") }
     };
     let mut all_series: Vec<String> = Vec::new();
-    let mut traces: Vec<String> = Vec::new();
-    for r in rows {
+    let mut traces: Vec<&str> = Vec::new();
+    for r in &t.rows {
         let s = series_name(r);
         if !all_series.contains(&s) {
             all_series.push(s);
         }
-        let t = cell(r, c_trace);
-        if !traces.contains(&t) {
-            traces.push(t);
+        let tr = t.cell(r, "trace");
+        if !traces.contains(&tr) {
+            traces.push(tr);
         }
     }
+    let present = |m: &Measure| t.col(m.column).is_some();
     let mut out = Vec::new();
-    for t in &traces {
-        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| cell(r, c_trace) == *t).collect();
-        let spec_name = mine.first().map(|r| cell(r, c_spec)).unwrap_or_default();
-        for (cost, cost_label, cost_short) in COSTS {
-            let Ok(cc) = col(cost) else { continue };
-            for (quality, q_label, q_short, better) in QUALITIES {
-                let Ok(qc) = col(quality) else { continue };
+    for tr in &traces {
+        let mine: Vec<_> = t.rows.iter().filter(|r| t.cell(r, "trace") == *tr).collect();
+        let spec_name = mine.first().map(|r| t.cell(r, "spec")).unwrap_or_default();
+        for cost in COSTS.iter().filter(|m| present(m)) {
+            for (quality, better) in QUALITIES.iter().filter(|(m, _)| present(m)) {
                 let mut series: Vec<Series> = Vec::new();
                 let mut knobs: Vec<Vec<Vec<String>>> = Vec::new();
                 for r in &mine {
-                    let (Some(x), Some(y)) = (num(r, cc), num(r, qc)) else { continue };
+                    let (Some(x), Some(y)) = ((cost.value)(&r.metrics), (quality.value)(&r.metrics)) else { continue };
                     let name = series_name(r);
-                    let values: Vec<String> = knob_cols.iter().map(|&c| cell(r, c)).collect();
+                    let values: Vec<String> = knob_cols.iter().map(|&c| r.cells[c].clone()).collect();
                     match series.iter().position(|s| s.name == name) {
                         Some(i) => {
                             series[i].points.push((x, y));
@@ -128,18 +178,18 @@ pub fn charts_from_csv(csv: &str) -> Result<Vec<(String, Scatter)>, String> {
                         .iter()
                         .map(|v| {
                             let parts: Vec<String> =
-                                varying.iter().map(|&k| format!("{}={}", header[knob_cols[k]], v[k])).collect();
+                                varying.iter().map(|&k| format!("{}={}", t.header[knob_cols[k]], v[k])).collect();
                             parts.join(", ")
                         })
                         .collect();
                 }
                 series.sort_by_key(|s| s.style);
                 out.push((
-                    format!("{}.{quality}-vs-{cost}", file_label(t)),
+                    format!("{}.{}-vs-{}", file_label(tr), quality.column, cost.column),
                     Scatter {
-                        title: format!("{spec_name}: {t}, {q_short} against {cost_short}"),
-                        x_label: cost_label.to_string(),
-                        y_label: q_label.to_string(),
+                        title: format!("{spec_name}: {tr}, {} against {}", quality.short, cost.short),
+                        x_label: cost.label.to_string(),
+                        y_label: quality.label.to_string(),
                         better: *better,
                         series,
                     },
@@ -147,13 +197,14 @@ pub fn charts_from_csv(csv: &str) -> Result<Vec<(String, Scatter)>, String> {
             }
         }
     }
-    Ok(out)
+    out
 }
 
 /// Render every chart of `csv` into `dir` as `.svg` and `.png` (module
 /// rules); returns the files written.
 pub fn write_charts(csv: &str, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
-    let charts = charts_from_csv(csv).map_err(anyhow::Error::msg)?;
+    let table = read_csv(csv).map_err(|e| anyhow::anyhow!("line {e}"))?;
+    let charts = charts_from_table(&table);
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut written = Vec::new();
     for (stem, chart) in &charts {
@@ -169,7 +220,7 @@ pub fn write_charts(csv: &str, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         written.push(svg);
         written.push(png);
     }
-    for (stem, chart) in stability::stress_charts_from_csv(csv).map_err(anyhow::Error::msg)? {
+    for (stem, chart) in stability::stress_charts(&table) {
         let svg = dir.join(format!("{stem}.svg"));
         crate::io_util::write_bytes_atomically(
             &svg,

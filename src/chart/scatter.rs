@@ -8,6 +8,7 @@
 //! points. Output bytes depend only on the [`Scatter`]: no time stamps,
 //! no randomness, one thread.
 
+use super::axis::{Ticked, ticked_linear};
 use super::font::{self, FAMILY};
 use super::pareto::{Better, pareto_front, step_line};
 use super::style::{draw_marker, series_style};
@@ -64,6 +65,13 @@ fn e<E: std::fmt::Display>(err: E) -> String {
 /// Tick labels: at most 4 significant digits, k/M/G for large values.
 pub fn tick(v: f64) -> String {
     let a = v.abs();
+    if a >= 1e12 || (a > 0.0 && a < 1e-4) {
+        // Scientific beyond G and below 0.0001: `1.7e308`, `2.5e-7`.
+        let s = format!("{v:.3e}");
+        let (m, e) = s.split_once('e').unwrap_or((&s, "0"));
+        let m = if m.contains('.') { m.trim_end_matches('0').trim_end_matches('.') } else { m };
+        return format!("{m}e{e}");
+    }
     let (x, suffix) = if a >= 1e9 {
         (v / 1e9, "G")
     } else if a >= 1e6 {
@@ -92,26 +100,6 @@ pub fn tick(v: f64) -> String {
     s + suffix
 }
 
-fn range(vals: impl Iterator<Item = f64>, log: bool) -> Range<f64> {
-    let v: Vec<f64> = vals.filter(|x| x.is_finite() && (!log || *x > 0.0)).collect();
-    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if !lo.is_finite() {
-        return 0.0..1.0;
-    }
-    if log {
-        return lo / 1.25..hi * 1.25;
-    }
-    let pad = if hi > lo {
-        0.06 * (hi - lo)
-    } else if lo != 0.0 {
-        0.05 * lo.abs()
-    } else {
-        1.0
-    };
-    lo - pad..hi + pad
-}
-
 fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawResult<()> {
     font::register()?;
     root.fill(&WHITE).map_err(e)?;
@@ -131,15 +119,19 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawR
     let costs = || all.iter().map(|p| p.0).filter(|c| c.is_finite());
     let lo = costs().fold(f64::INFINITY, f64::min);
     let hi = costs().fold(f64::NEG_INFINITY, f64::max);
-    let log = lo > 0.0 && hi / lo > 20.0;
-    let y = range(all.iter().map(|p| p.1), false);
-    if log {
-        plot_on(root, &plot, s, range(costs(), true).log_scale(), y)?;
-    } else {
-        plot_on(root, &plot, s, range(costs(), false), y)?;
+    let y = super::axis::linear(all.iter().map(|p| p.1), 0.06);
+    match super::axis::log(costs()).filter(|_| lo > 0.0 && hi / lo > 20.0) {
+        Some(r) => {
+            let ticks = super::axis::log_ticks(&r);
+            plot_on(root, &plot, s, Ticked::new(r.log_scale(), ticks), y)?;
+        }
+        None => plot_on(root, &plot, s, ticked_linear(super::axis::linear(costs(), 0.06)), y)?,
     }
     draw_legend(&legend, s)
 }
+
+/// A chart context whose x axis is `X` and y axis a ticked linear one.
+pub(super) type Axes<'a, DB, X> = ChartContext<'a, DB, Cartesian2d<X, Ticked<plotters::coord::types::RangedCoordf64>>>;
 
 /// A chart on `area` with the house style: margins, label areas, the
 /// `(x, y)` axis descriptions at `desc_size` points, ticks by [`tick`],
@@ -150,7 +142,7 @@ pub(super) fn axes<'a, DB, X>(
     y: Range<f64>,
     (x_desc, y_desc): (&str, &str),
     desc_size: u32,
-) -> DrawResult<ChartContext<'a, DB, Cartesian2d<X::CoordDescType, plotters::coord::types::RangedCoordf64>>>
+) -> DrawResult<Axes<'a, DB, X::CoordDescType>>
 where
     DB: DrawingBackend + 'a,
     X: AsRangedCoord<Value = f64>,
@@ -160,7 +152,7 @@ where
         .margin(12)
         .x_label_area_size(50)
         .y_label_area_size(70)
-        .build_cartesian_2d(x, y)
+        .build_cartesian_2d(x, ticked_linear(y))
         .map_err(e)?;
     let fmt = |v: &f64| tick(*v);
     chart
@@ -351,6 +343,9 @@ mod tests {
         assert_eq!(tick(12.3456), "12.35");
         assert_eq!(tick(30000.0), "30k");
         assert_eq!(tick(0.0), "0");
+        assert_eq!(tick(1.7e308), "1.7e308");
+        assert_eq!(tick(-2.5e-7), "-2.5e-7");
+        assert_eq!(tick(f64::MAX), "1.798e308");
     }
 
     #[test]

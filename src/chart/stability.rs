@@ -22,8 +22,8 @@
 use super::font::{self, FAMILY};
 use super::scatter::{HEIGHT, WIDTH, tick};
 use super::style::{draw_marker, series_style};
+use crate::sweep::results::{ResultsRow, ResultsTable};
 use plotters::coord::Shift;
-use plotters::coord::combinators::BindKeyPoints;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
 use std::ops::Range;
@@ -79,17 +79,16 @@ pub fn failure_points(points: &[(f64, f64)], threshold: f64) -> Vec<f64> {
         .collect()
 }
 
-/// The stress column of a parsed CSV (module rule 1), or `None`.
-pub fn stress_column(header: &[String], rows: &[Vec<String>]) -> Option<usize> {
+/// The stress column of a read `results.csv` (module rule 1), or `None`.
+pub fn stress_column(t: &ResultsTable) -> Option<usize> {
     let mut found = None;
     for (_, _, _, col) in crate::sweep::trace_fields::TRACE_FIELDS {
-        let Some(c) = header.iter().position(|h| h == col) else { continue };
-        let mut values: Vec<&str> = rows.iter().map(|r| r.get(c).map(String::as_str).unwrap_or("")).collect();
-        values.dedup();
+        let Some(c) = t.col(col) else { continue };
+        let mut values: Vec<&str> = t.rows.iter().map(|r| r.cells[c].as_str()).collect();
         values.sort();
         values.dedup();
         if values.len() > 1 {
-            if found.is_some() || values.iter().any(|v| v.parse::<f64>().is_err()) {
+            if found.is_some() || values.iter().any(|v| v.parse::<f64>().map_or(true, |x| !x.is_finite())) {
                 return None;
             }
             found = Some(c);
@@ -99,41 +98,41 @@ pub fn stress_column(header: &[String], rows: &[Vec<String>]) -> Option<usize> {
 }
 
 /// Every stability chart `csv` gives, with its file stem (empty when the
-/// CSV is not a stress sweep).
+/// CSV is not a stress sweep); errors are `LINE: message`.
 pub fn stress_charts_from_csv(csv: &str) -> Result<Vec<(String, StressChart)>, String> {
-    let rows = crate::report::csv::parse(csv)?;
-    let Some((header, rows)) = rows.split_first() else { return Ok(Vec::new()) };
-    let Some(sc) = stress_column(header, rows) else { return Ok(Vec::new()) };
-    let col =
-        |name: &str| header.iter().position(|h| h == name).ok_or_else(|| format!("results CSV has no `{name}` column"));
-    let (c_spec, c_scene, c_method, c_fill, c_q) =
-        (col("spec")?, col("scene")?, col("method")?, col("hole_fill")?, col("psnr_luma_db")?);
-    let cell = |r: &Vec<String>, c: usize| r.get(c).cloned().unwrap_or_default();
-    let series_name = |r: &Vec<String>| {
-        let (m, f) = (cell(r, c_method), cell(r, c_fill));
-        if f.is_empty() { m } else { format!("{m} + {f}") }
+    Ok(stress_charts(&crate::sweep::results::read_csv(csv)?))
+}
+
+/// Every stability chart of a read `results.csv` (see
+/// [`stress_charts_from_csv`]). Luma PSNR is read from the rows'
+/// [`crate::sweep::point::Metrics`]; a row without one (nothing scored)
+/// counts as a failure.
+pub fn stress_charts(t: &ResultsTable) -> Vec<(String, StressChart)> {
+    let Some(sc) = stress_column(t) else { return Vec::new() };
+    let series_name = |r: &ResultsRow| {
+        let (m, f) = (t.cell(r, "method"), t.cell(r, "hole_fill"));
+        if f.is_empty() { m.to_string() } else { format!("{m} + {f}") }
     };
     let mut all_series: Vec<String> = Vec::new();
-    let mut scenes: Vec<String> = Vec::new();
-    for r in rows {
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in &t.rows {
         let s = series_name(r);
         if !all_series.contains(&s) {
             all_series.push(s);
         }
-        if !scenes.contains(&cell(r, c_scene)) {
-            scenes.push(cell(r, c_scene));
+        if !scenes.contains(&t.cell(r, "scene")) {
+            scenes.push(t.cell(r, "scene"));
         }
     }
-    let stress = header[sc].clone();
+    let stress = t.header[sc].clone();
     let mut out = Vec::new();
     for scene in &scenes {
         let mut series: Vec<StressSeries> = Vec::new();
         let mut spec_name = String::new();
-        for r in rows.iter().filter(|r| cell(r, c_scene) == *scene) {
-            spec_name = cell(r, c_spec);
-            let Ok(x) = cell(r, sc).parse::<f64>() else { continue };
-            // Empty or unparsable quality (nothing scored) counts as NaN: failed.
-            let y = cell(r, c_q).parse::<f64>().unwrap_or(f64::NAN);
+        for r in t.rows.iter().filter(|r| t.cell(r, "scene") == *scene) {
+            spec_name = t.cell(r, "spec").to_string();
+            let Ok(x) = r.cells[sc].parse::<f64>() else { continue };
+            let y = r.metrics.psnr_luma_db.unwrap_or(f64::NAN);
             let name = series_name(r);
             match series.iter_mut().find(|s| s.name == name) {
                 Some(s) => s.points.push((x, y)),
@@ -149,17 +148,18 @@ pub fn stress_charts_from_csv(csv: &str) -> Result<Vec<(String, StressChart)>, S
             s.failures = failure_points(&s.points, THRESHOLD_DB);
         }
         series.sort_by_key(|s| s.style);
+        let (label, short) = stress_label(&stress);
         out.push((
             format!("stability.{}.psnr_luma_db-vs-{stress}", super::file_label(&scene_label(scene))),
             StressChart {
-                title: format!("{spec_name}: {}, luma PSNR against {stress}", scene_label(scene)),
-                x_label: stress_label(&stress),
+                title: format!("{spec_name}: {}, luma PSNR against {short}", scene_label(scene)),
+                x_label: label,
                 threshold: THRESHOLD_DB,
                 series,
             },
         ));
     }
-    Ok(out)
+    out
 }
 
 /// A scene as the charts name it: a built-in scene's name, or a scene
@@ -171,13 +171,18 @@ fn scene_label(scene: &str) -> String {
     }
 }
 
-/// Axis label of a stress column: the column with its unit spelled out.
-fn stress_label(col: &str) -> String {
-    crate::sweep::trace_fields::TRACE_FIELDS
-        .iter()
-        .find(|f| f.3 == col)
-        .map(|f| format!("{} ({}), {}", f.0, f.1, f.2))
-        .unwrap_or_else(|| col.to_string())
+/// Axis label and short name of a stress column: what it is, in words,
+/// with its unit (`derived camera rolled about its view axis, in [-180,
+/// 180] (degrees)`), not the column name.
+fn stress_label(col: &str) -> (String, String) {
+    match crate::sweep::trace_fields::TRACE_FIELDS.iter().find(|f| f.3 == col) {
+        Some(f) => {
+            let what = f.2.strip_prefix("stress: ").unwrap_or(f.2);
+            let short = what.split(',').next().unwrap_or(what).to_string();
+            (format!("{what} ({})", f.1), short)
+        }
+        None => (col.to_string(), col.to_string()),
+    }
 }
 
 type DrawResult<T> = Result<T, String>;
@@ -215,25 +220,24 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &StressChart) -> D
         .map_err(e)?;
     let (plot, legend) = body.split_horizontally(WIDTH - LEGEND_WIDTH);
     let pts: Vec<(f64, f64)> = s.series.iter().flat_map(|x| x.points.iter().copied()).collect();
-    let xs = pts.iter().map(|p| p.0).filter(|v| v.is_finite());
-    let (mut x_lo, mut x_hi) = (xs.clone().fold(f64::INFINITY, f64::min), xs.fold(f64::NEG_INFINITY, f64::max));
-    if !x_lo.is_finite() {
-        (x_lo, x_hi) = (0.0, 1.0);
-    }
-    let ys = pts.iter().map(|p| p.1).filter(|v| v.is_finite()).chain([s.threshold]);
-    let (y_lo, y_hi) = (ys.clone().fold(f64::INFINITY, f64::min), ys.fold(f64::NEG_INFINITY, f64::max));
-    let ypad = if y_hi > y_lo { 0.08 * (y_hi - y_lo) } else { 1.0 };
-    let y = y_lo - ypad..y_hi + ypad;
-    if log_x(x_lo, x_hi) {
-        // Ticks at the stress values themselves: a log axis spanning less
-        // than a decade on one side of 1 would otherwise have none there.
-        let mut ticks: Vec<f64> = pts.iter().map(|p| p.0).filter(|v| v.is_finite()).collect();
-        ticks.sort_by(f64::total_cmp);
-        ticks.dedup();
-        plot_on(root, &plot, s, (x_lo / 1.25..x_hi * 1.25).log_scale().with_key_points(ticks), y, true)?;
-    } else {
-        let xpad = if x_hi > x_lo { 0.05 * (x_hi - x_lo) } else { 1.0 };
-        plot_on(root, &plot, s, x_lo - xpad..x_hi + xpad, y, false)?;
+    let xs = || pts.iter().map(|p| p.0).filter(|v| v.is_finite());
+    let (x_lo, x_hi) = (xs().fold(f64::INFINITY, f64::min), xs().fold(f64::NEG_INFINITY, f64::max));
+    let y = super::axis::linear(pts.iter().map(|p| p.1).chain([s.threshold]), 0.08);
+    match super::axis::log(xs()).filter(|_| log_x(x_lo, x_hi)) {
+        Some(r) => {
+            // Ticks at the stress values themselves (a log axis spanning
+            // less than a decade on one side of 1 would otherwise have none
+            // there), thinned to a readable number.
+            let mut ticks: Vec<f64> = xs().collect();
+            ticks.sort_by(f64::total_cmp);
+            ticks.dedup();
+            let every = ticks.len().div_ceil(3 * super::axis::MAX_TICKS).max(1);
+            let ticks: Vec<f64> = ticks.into_iter().step_by(every).collect();
+            plot_on(root, &plot, s, super::axis::Ticked::new(r.log_scale(), ticks), y, true)?;
+        }
+        None => {
+            plot_on(root, &plot, s, super::axis::ticked_linear(super::axis::linear(xs(), 0.05)), y, false)?;
+        }
     }
     // Legend: marker, name, where it fails.
     let style = (FAMILY, 13).into_font().color(&BLACK);

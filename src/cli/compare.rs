@@ -11,9 +11,15 @@ pub struct Args {
     /// Trace directories (or their `postwarp.trace` manifests).
     #[arg(required = true)]
     pub traces: Vec<PathBuf>,
-    /// Output directory: `<trace>/<method>+<fill>/` per run, `compare.csv`, `compare.md`.
+    /// Output directory: `<trace>/<method>+<fill>/` per run, `compare.csv`,
+    /// `compare.md` (must not exist, unless --force; written under a
+    /// temporary name beside it and renamed when complete).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace --out if it exists: its contents are removed, not mixed with
+    /// this run's (the new folder takes its place only when complete).
+    #[arg(long)]
+    pub force: bool,
     /// Methods to run, comma-separated [default: every method].
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
@@ -48,7 +54,10 @@ pub fn pairs(a: &Args) -> anyhow::Result<Vec<Pair>> {
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let pairs = pairs(&a)?;
-    let rows = run_compare(&a.traces, &pairs, a.runs, &a.out)?;
+    let inputs: Vec<&std::path::Path> = a.traces.iter().map(PathBuf::as_path).collect();
+    let out = crate::io_util::OutDir::create(&a.out, a.force, &inputs)?;
+    let rows = run_compare(&a.traces, &pairs, a.runs, out.path())?;
+    out.commit()?;
     print!("{}", crate::run::compare::markdown(&rows));
     println!("wrote {} and {}", a.out.join("compare.md").display(), a.out.join("compare.csv").display());
     Ok(())

@@ -3,7 +3,6 @@
 use crate::golden::config::{GoldenConfig, OverLimit, Reconstruction, WarpOrder};
 use crate::run::golden::run_golden;
 use crate::trace::Trace;
-use anyhow::Context;
 use std::path::PathBuf;
 
 /// Flags of `postwarp golden`. Knob flags override `--config`.
@@ -11,9 +10,15 @@ use std::path::PathBuf;
 pub struct Args {
     /// Trace directory (or its `postwarp.trace` manifest).
     pub trace: PathBuf,
-    /// Output directory: frame-NNNN.png/.exr, holes-NNNN.png, diff-NNNN.png, report.json.
+    /// Output directory: frame-NNNN.png/.exr, holes-NNNN.png, diff-NNNN.png,
+    /// report.json (must not exist, unless --force; written under a
+    /// temporary name beside it and renamed when complete).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace --out if it exists: its contents are removed, not mixed with
+    /// this run's (the new folder takes its place only when complete).
+    #[arg(long)]
+    pub force: bool,
     /// Golden-model knobs as TOML (keys as in docs/golden.md).
     #[arg(long)]
     pub config: Option<PathBuf>,
@@ -64,7 +69,7 @@ pub fn config(a: &Args) -> anyhow::Result<GoldenConfig> {
     let mut cfg = match &a.config {
         None => GoldenConfig::default(),
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            let text = crate::io_util::read_text(p, "golden-model configuration (TOML)")?;
             toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?
         }
     };
@@ -96,26 +101,18 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let cfg = config(&a)?;
     let trace = Trace::open(&a.trace)?;
-    let r = run_golden(&trace, &cfg, &a.out)?;
-    println!(
-        "{}: {} frames, method {}",
-        trace.manifest.display(),
-        trace.derived.len(),
-        r.report["method"].as_str().unwrap_or("?")
-    );
-    let slopes = &r.report["references"]["slopes"];
-    if slopes.as_array().is_some_and(|a| a.iter().any(|s| s == "finite-difference")) {
-        println!("slopes: computed from depth by finite differences for some reference frames ({slopes})");
+    let out = crate::io_util::OutDir::create(&a.out, a.force, &[&trace.manifest])?;
+    let r = run_golden(&trace, &cfg, out.path())?;
+    out.commit()?;
+    println!("{}: {} frames, method {}", trace.manifest.display(), trace.derived.len(), r.report.method);
+    let slopes = &r.report.references.slopes;
+    if slopes.iter().any(|s| s.as_deref() == Some("finite-difference")) {
+        let list: Vec<&str> = slopes.iter().map(|s| s.as_deref().unwrap_or("unused")).collect();
+        println!("slopes: computed from depth by finite differences for some reference frames ({})", list.join(", "));
     }
     print!("{}", r.table);
     println!();
-    print!(
-        "{}",
-        crate::report::table::render_counters(
-            r.report["frames"].as_array().map(Vec::as_slice).unwrap_or(&[]),
-            &r.report["mean"]
-        )
-    );
+    print!("{}", crate::report::table::golden_counters(&r.report));
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())
 }
@@ -130,7 +127,9 @@ fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
     let fill_name = a.hole_fill.clone().unwrap_or_else(|| rec.info().default_hole_fill.to_string());
     let fill = crate::methods::hole_fill(&fill_name)?;
     let trace = Trace::open(&a.trace)?;
-    let r = crate::run::method::run_method(&trace, rec.as_ref(), fill.as_ref(), a.runs, &a.out)?;
+    let out = crate::io_util::OutDir::create(&a.out, a.force, &[&trace.manifest])?;
+    let r = crate::run::method::run_method(&trace, rec.as_ref(), fill.as_ref(), a.runs, out.path())?;
+    out.commit()?;
     println!(
         "{}: {} frames, method {} + hole fill {} ({}), host_ms = median of {} runs",
         trace.manifest.display(),
@@ -141,11 +140,7 @@ fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
         a.runs
     );
     print!("{}", r.table);
-    println!(
-        "primitives per frame (mean): {} {}",
-        r.report["mean"]["primitives"].as_f64().map_or("-".into(), |v| format!("{v:.0}")),
-        rec.info().primitive
-    );
+    println!("primitives per frame (mean): {:.0} {}", r.report.mean.primitives, rec.info().primitive);
     println!("wrote {}", a.out.join("report.json").display());
     Ok(())
 }

@@ -9,15 +9,22 @@ use std::path::{Path, PathBuf};
 pub struct Args {
     /// Middlebury 2014 folder with im0.png, im1.png, disp0.pfm, calib.txt.
     pub dir: PathBuf,
-    /// Output trace directory.
+    /// Output trace directory (must not exist, unless --force; written
+    /// under a temporary name beside it and renamed when complete).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace --out if it exists: its contents are removed, not mixed with
+    /// this run's (the new folder takes its place only when complete).
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let manifest = crate::import::middlebury::import_middlebury(&a.dir, &a.out)?;
+    let out = crate::io_util::OutDir::create(&a.out, a.force, &[&a.dir])?;
+    let manifest = crate::import::middlebury::import_middlebury(&a.dir, out.path())?;
     write_previews(&manifest)?;
-    eprintln!("wrote {}", manifest.display());
+    let dir = out.commit()?;
+    eprintln!("wrote {}", dir.join(crate::trace::MANIFEST_NAME).display());
     Ok(())
 }
 

@@ -2,7 +2,6 @@
 
 use crate::scene::Scene;
 use crate::tracegen::{PathKind, TraceSpec, make_trace};
-use anyhow::Context;
 use std::path::PathBuf;
 
 /// Flags of `postwarp make-trace` (defaults follow the paper's test-bed).
@@ -12,9 +11,14 @@ pub struct Args {
     /// description file (TOML, see docs/scene-format.md).
     #[arg(long)]
     pub scene: String,
-    /// Output trace directory (created; existing files are replaced).
+    /// Output trace directory (must not exist, unless --force; written
+    /// under a temporary name beside it and renamed when complete).
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace --out if it exists: its contents are removed, not mixed with
+    /// this run's (the new folder takes its place only when complete).
+    #[arg(long)]
+    pub force: bool,
     /// Display width (pixels).
     #[arg(long, default_value_t = 320)]
     pub width: u32,
@@ -103,14 +107,24 @@ pub fn parse_made_by(command: &str) -> Option<Args> {
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
-    let scene = Scene::load(&a.scene).with_context(|| format!("loading scene `{}`", a.scene))?;
+    // A path is opened only if it is a regular file (a FIFO would block
+    // the scene reader); the scene's own errors name it, once.
+    let as_path = std::path::Path::new(&a.scene);
+    if Scene::builtin_source(&a.scene).is_none() && std::fs::symlink_metadata(as_path).is_ok() {
+        crate::io_util::check_input_file(as_path, "scene description (TOML, docs/scene-format.md)")?;
+    }
+    let scene = Scene::load(&a.scene)?;
     let spec = a.spec();
     let command = std::iter::once("postwarp".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
     let start = std::time::Instant::now();
-    let manifest = make_trace(&scene, &spec, &a.out, &command)?;
+    let scene_file = std::path::Path::new(&a.scene);
+    let inputs: &[&std::path::Path] = if scene_file.is_file() { &[scene_file] } else { &[] };
+    let out = crate::io_util::OutDir::create(&a.out, a.force, inputs)?;
+    let manifest = make_trace(&scene, &spec, out.path(), &command)?;
     // Write a PNG preview of each reference and ground-truth frame beside the trace.
     crate::cli::import::write_previews(&manifest)?;
-    eprintln!("wrote {} in {:.1} s", manifest.display(), start.elapsed().as_secs_f64());
+    let dir = out.commit()?;
+    eprintln!("wrote {} in {:.1} s", dir.join(crate::trace::MANIFEST_NAME).display(), start.elapsed().as_secs_f64());
     Ok(())
 }
 

@@ -5,7 +5,7 @@ mod chart;
 mod compare;
 mod golden;
 mod import;
-mod info;
+pub mod info;
 pub mod make_trace;
 mod methods;
 mod simulate;
@@ -13,6 +13,7 @@ mod size;
 mod sweep;
 
 use clap::{Parser, Subcommand};
+
 use std::process::ExitCode;
 
 /// Post-rendering 3D image warping: traces, a CPU golden model and a
@@ -84,9 +85,41 @@ enum Command {
     Chart(chart::Args),
 }
 
+/// The command line's definition: every flag that takes a value accepts a
+/// negative number as its value (so `--width -1` is refused by the flag's
+/// own check, naming the flag, instead of as an unknown argument `-1`).
+pub fn command() -> clap::Command {
+    fn negatives(c: clap::Command) -> clap::Command {
+        c.mut_args(|a| if a.get_action().takes_values() { a.allow_negative_numbers(true) } else { a })
+            .mut_subcommands(negatives)
+    }
+    negatives(<Cli as clap::CommandFactory>::command())
+}
+
+/// Parse `args` (the program name first) as [`command`] does.
+pub fn parse_from<I, T>(args: I) -> Result<Cli, clap::Error>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let m = command().try_get_matches_from(args)?;
+    <Cli as clap::FromArgMatches>::from_arg_matches(&m)
+}
+
 /// Parse the process arguments and run; errors are printed to stderr.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    // Rust ignores SIGPIPE, so printing into a closed pipe would panic;
+    // restore the default: the process ends when the reader goes away.
+    #[cfg(unix)]
+    // SAFETY: called once at start, before any thread; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    let cli = match parse_from(std::env::args_os()) {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,40 +1,71 @@
 //! `postwarp simulate`: the cycle-level hardware model on a trace, checked
 //! against the golden model.
 
-use crate::run::hw_config_toml::load;
+use crate::run::hw_config_toml::{dump, load};
 use crate::run::simulate::run_simulate;
 use crate::trace::Trace;
+use anyhow::Context;
 use std::path::PathBuf;
 
 /// Flags of `postwarp simulate`.
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Trace directory (or its `postwarp.trace` manifest).
-    pub trace: PathBuf,
-    /// Output directory: frame-NNNN.png, diff-NNNN.png, report.json.
+    #[arg(required_unless_present = "dump_config", requires = "out")]
+    pub trace: Option<PathBuf>,
+    /// Output directory: frame-NNNN.png/.exr, diff-NNNN.png, report.json
+    /// (must not exist, unless --force; written under a temporary name
+    /// beside it and renamed when complete).
+    #[arg(long, requires = "trace")]
+    pub out: Option<PathBuf>,
+    /// Replace --out if it exists: its contents are removed, not mixed with
+    /// this run's (the new folder takes its place only when complete).
     #[arg(long)]
-    pub out: PathBuf,
+    pub force: bool,
     /// Hardware knobs as TOML (keys as in docs/units.md; `preset = "NAME"` picks the base).
     #[arg(long, conflicts_with = "preset")]
     pub config: Option<PathBuf>,
     /// A named configuration: mark1998 (default) or hmd2026.
     #[arg(long)]
     pub preset: Option<String>,
+    /// Write the configuration (--config / --preset) to FILE as TOML that
+    /// --config reads back: every knob, each with its unit and meaning in
+    /// a comment (`-` = standard output). Without a trace, nothing runs.
+    #[arg(long, value_name = "FILE")]
+    pub dump_config: Option<PathBuf>,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let cfg = load(a.config.as_deref(), a.preset.as_deref())?;
-    let trace = Trace::open(&a.trace)?;
-    let r = run_simulate(&trace, &cfg, &a.out)?;
-    let total = &r.report["total"];
+    if let Some(file) = &a.dump_config {
+        let from = match (&a.config, &a.preset) {
+            (Some(c), _) => format!("--config {}", c.display()),
+            (None, Some(p)) => format!("--preset {p}"),
+            (None, None) => "the default preset mark1998".into(),
+        };
+        let text = dump(&cfg, &format!("postwarp simulate configuration, from {from}"));
+        if file.as_os_str() == "-" {
+            print!("{text}");
+        } else {
+            crate::io_util::write_bytes_atomically(file, text.as_bytes())
+                .with_context(|| "--dump-config: cannot write the configuration")?;
+            eprintln!("wrote {}", file.display());
+        }
+    }
+    let (Some(trace), Some(out)) = (&a.trace, &a.out) else { return Ok(()) };
+    let trace = Trace::open(trace)?;
+    let staged = crate::io_util::OutDir::create(out, a.force, &[&trace.manifest])?;
+    let r = run_simulate(&trace, &cfg, staged.path())?;
+    let dir = staged.commit()?;
+    print!("{}", r.summary);
+    let total = &r.report.total;
     println!(
         "{}: {} frames on the hardware model; {} of {} identical to the golden model",
         trace.manifest.display(),
         trace.derived.len(),
-        total["identical_frames"],
-        total["frames"]
+        total.identical_frames,
+        total.frames
     );
-    print!("{}", r.summary);
-    println!("report: {}", a.out.join("report.json").display());
+    println!("report: {}", dir.join("report.json").display());
     Ok(())
 }

@@ -20,9 +20,15 @@ pub struct Args {
     /// Output directory: config.toml, size.json, candidates.csv, and
     /// traces/ (traces rendered at other super-samplings, reused by later
     /// runs). Without it those traces are cached in the system's
-    /// temporary directory (postwarp-size/traces/).
+    /// temporary directory (postwarp-size/traces/). Must not exist unless
+    /// --force (checked before any work); written under a temporary name
+    /// beside it and renamed when complete.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace --out if it exists (its traces/ cache is kept and reused;
+    /// everything else is replaced, not mixed).
+    #[arg(long, requires = "out")]
+    pub force: bool,
     /// Preset of every other knob: mark1998 (default) or hmd2026.
     #[arg(long, default_value = "mark1998")]
     pub preset: String,
@@ -42,28 +48,51 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if !a.trace.exists() {
         bail!("{}: no such trace (expected a trace directory or its postwarp.trace)", a.trace.display());
     }
-    let cache_dir = a.out.clone().unwrap_or_else(|| std::env::temp_dir().join("postwarp-size"));
     if !(a.max_dram_overhead.is_finite() && a.max_dram_overhead >= 0.0) {
         bail!(
             "--max-dram-overhead {}: expected a fraction >= 0 (0.25 = 25 % more DRAM bytes than the miss-free cache)",
             a.max_dram_overhead
         );
     }
+    // --out is checked before any work.
+    let out = match &a.out {
+        Some(d) => Some(crate::io_util::OutDir::create(d, a.force, &[&a.trace])?),
+        None => None,
+    };
+    // Traces rendered at other super-samplings are cached in the old
+    // folder if there is one (--force), else in the new one.
+    let old_cache = out.as_ref().map(|o| o.target().to_path_buf()).filter(|t| t.join("traces").is_dir());
+    let cache_dir = match (&out, &old_cache) {
+        (_, Some(t)) => t.clone(),
+        (Some(o), None) => o.path().to_path_buf(),
+        (None, _) => std::env::temp_dir().join("postwarp-size"),
+    };
     let o = Options {
         trace: a.trace,
         floor,
         preset: a.preset,
         frames: a.frames,
-        cache_dir,
+        cache_dir: cache_dir.clone(),
         max_dram_overhead: a.max_dram_overhead,
     };
-    let r = size_and_write(&o, a.out.as_deref())?;
-    print!("{}", output::text(&r));
-    if let Some(d) = &a.out {
+    let written = out.as_ref().map(|d| (d.path(), d.target()));
+    let mut r = size_and_write(&o, written)?;
+    if let Some(d) = out {
+        if let Some(old) = &old_cache {
+            r.relocate(old, d.target());
+            let (from, to) = (old.join("traces"), d.path().join("traces"));
+            std::fs::rename(&from, &to).map_err(|e| {
+                anyhow::anyhow!("moving the trace cache {} into the new {}: {e}", from.display(), to.display())
+            })?;
+        }
+        let dir = d.commit()?;
+        print!("{}", output::text(&r));
         println!(
             "files: {}",
-            ["config.toml", "size.json", "candidates.csv"].map(|f| d.join(f).display().to_string()).join(", ")
+            ["config.toml", "size.json", "candidates.csv"].map(|f| dir.join(f).display().to_string()).join(", ")
         );
+    } else {
+        print!("{}", output::text(&r));
     }
     if r.chosen.is_none() {
         let best = r.best_quality();

@@ -11,6 +11,9 @@
 //! - depth `Z = baseline · f / (d + doffs)` (Middlebury's formula, mm), then
 //!   ÷ 1000; a pixel is valid only where `d` is finite (`inf` = unknown, a
 //!   hole, not a surface) and the resulting `Z` is a finite positive `f32`;
+//!   a disparity that is negative, NaN or `-inf` is an error naming the
+//!   pixel (Middlebury writes none, and a negative one would otherwise
+//!   give a plausible positive depth);
 //! - PNG colours are 8-bit sRGB and are converted to linear RGB
 //!   ([`srgb_to_linear`]); object ids are 0; slopes are not supplied
 //!   ([`SlopeSource::FiniteDifference`]); every truth pixel is known;
@@ -173,8 +176,8 @@ impl Calib {
 
 /// Read and check `calib.txt`.
 pub fn read_calib(path: &Path) -> Result<Calib, ImportError> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| ImportError::input(path, None, format!("cannot read calibration file: {e}")))?;
+    let text = crate::io_util::read_text(path, "calibration file (calib.txt)")
+        .map_err(|e| ImportError::input(path, None, e.message))?;
     parse_calib(&text, path)
 }
 
@@ -387,6 +390,7 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
         return Err(ImportError::input(&disp_path, None, size_note("the disparity map", (disp.width, disp.height))));
     }
 
+    check_disparities(&disp.data, w, &disp_path)?;
     let mut left = SampleImage::empty(w, h);
     left.colour = left_colour;
     let mut valid_pixels = 0;
@@ -415,6 +419,28 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
     })
 }
 
+/// Disparities are `+inf` (unknown, Middlebury's marker) or finite and at
+/// least 0 (pixels): a negative, NaN or `-inf` value is not one Middlebury
+/// writes, so the file is refused rather than read as a surface (a
+/// negative `d` would still give a positive depth `b·f/(d + doffs)`
+/// whenever `d > -doffs`). The error names the first such pixel (x right,
+/// y down) and how many there are.
+fn check_disparities(data: &[f32], width: u32, path: &Path) -> Result<(), ImportError> {
+    let bad = |d: f32| d.is_nan() || d < 0.0;
+    let Some(first) = data.iter().position(|&d| bad(d)) else { return Ok(()) };
+    let n = data.iter().filter(|&&d| bad(d)).count();
+    let (x, y) = (first as u32 % width, first as u32 / width);
+    Err(ImportError::input(
+        path,
+        None,
+        format!(
+            "pixel ({x}, {y}) has disparity {}; expected a disparity >= 0 pixels, or inf where unknown ({n} such \
+             pixels)",
+            data[first]
+        ),
+    ))
+}
+
 /// Read an 8-bit PNG of `expected` size as linear RGB.
 fn read_png_linear(
     path: &Path,
@@ -422,8 +448,7 @@ fn read_png_linear(
     size_note: &dyn Fn(&str, (u32, u32)) -> String,
 ) -> Result<Vec<[f32; 3]>, ImportError> {
     use image::ColorType;
-    let bytes =
-        std::fs::read(path).map_err(|e| ImportError::input(path, None, format!("cannot read PNG file: {e}")))?;
+    let bytes = crate::io_util::read_input(path, "PNG image").map_err(|e| ImportError::input(path, None, e.message))?;
     let decode_err = |e: image::ImageError| ImportError::input(path, None, format!("cannot decode as PNG: {e}"));
     // The size from the header first: nothing is decoded at a wrong size.
     let reader = || image::ImageReader::with_format(std::io::Cursor::new(&bytes), image::ImageFormat::Png);
@@ -577,13 +602,13 @@ mod tests {
     fn reads_a_synthetic_folder() {
         let dir = tempfile::tempdir().unwrap();
         let inf = f32::INFINITY;
-        let disp = [3.0, 8.0, inf, 1.0, 0.5, 2.0, f32::NAN, -2.0, 3.0, 3.0, 3.0, -inf];
+        let disp = [3.0, 8.0, inf, 1.0, 0.5, 2.0, inf, 0.0, 3.0, 3.0, 3.0, inf];
         synthetic_folder(dir.path(), &disp);
         let p = read_middlebury(dir.path()).unwrap();
-        assert_eq!(p.valid_pixels, 8);
-        assert!((p.valid_fraction() - 8.0 / 12.0).abs() < 1e-12);
+        assert_eq!(p.valid_pixels, 9);
+        assert!((p.valid_fraction() - 9.0 / 12.0).abs() < 1e-12);
         let valid: Vec<bool> = p.left.valid.iter().map(|b| *b).collect();
-        let want = [true, true, false, true, true, true, false, false, true, true, true, false];
+        let want = [true, true, false, true, true, true, false, true, true, true, true, false];
         assert_eq!(valid, want);
         assert_eq!(p.left.z[0], 1.0);
         assert_eq!(p.left.z[1], 0.5); // 5000 / 10 mm
@@ -594,6 +619,20 @@ mod tests {
         assert_eq!(p.right_truth.colour[5], [srgb_to_linear(101), srgb_to_linear(110), 1.0]);
         assert!(p.right_truth.known.all());
         assert_eq!(p.right_camera.pose.position, DVec3::new(0.05, 0.0, 0.0));
+    }
+
+    #[test]
+    fn negative_and_nan_disparities_are_refused_naming_the_pixel() {
+        let dir = tempfile::tempdir().unwrap();
+        for (bad, text) in [(-2.0, "-2"), (f32::NAN, "NaN"), (f32::NEG_INFINITY, "-inf")] {
+            let mut disp = [3.0; 12];
+            disp[6] = bad; // (2, 1) in the top-down order
+            disp[11] = bad;
+            synthetic_folder(dir.path(), &disp);
+            let msg = read_middlebury(dir.path()).unwrap_err().to_string();
+            assert!(msg.contains("disp0.pfm: pixel (2, 1) has disparity"), "{msg}");
+            assert!(msg.contains(&format!("disparity {text};")) && msg.contains("(2 such pixels)"), "{msg}");
+        }
     }
 
     #[test]

@@ -58,7 +58,7 @@ impl std::error::Error for PfmError {}
 
 /// Read a PFM file (rows returned top-to-bottom).
 pub fn read_pfm(path: &Path) -> Result<PfmImage, PfmError> {
-    let bytes = std::fs::read(path).map_err(|e| err(path, format!("cannot read PFM file: {e}")))?;
+    let bytes = crate::io_util::read_input(path, "PFM file").map_err(|e| err(path, e.message))?;
     parse_pfm(&bytes, path)
 }
 
@@ -316,6 +316,6 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("nope.pfm");
         let msg = read_pfm(&p).unwrap_err().to_string();
-        assert!(msg.contains("nope.pfm") && msg.contains("cannot read"), "{msg}");
+        assert!(msg.contains("nope.pfm: does not exist; expected the PFM file"), "{msg}");
     }
 }

@@ -1,101 +1,183 @@
-//! Reports: `report.json` (keys other tools read: see `docs/report.md`) and
-//! the printed table. Ratios and means are derived here from per-frame
-//! counters and scores, never stored by the engines.
+//! Reports: `report.json`'s contents as typed structs, written and read by
+//! every command through the same code (`docs/report.md`), the printed
+//! tables, the pictures (heat-map, hole mask) and CSV fields.
 //!
-//! `report.json` = `{"trace", "method", "config", "references", "frames":
-//! [{"index", <metric keys>, "host_ms", <model counters>}], "mean": {...}}`.
-//! Every byte is deterministic for a given trace and configuration except
-//! the host-time fields (`host_ms`, `prepare_ms`).
+//! - [`GoldenReport`] (`postwarp golden`), [`MethodReport`] (`postwarp
+//!   golden --method`), [`SimulateReport`] (`postwarp simulate`); sweeps
+//!   and `postwarp size` read the in-memory report of the run, `compare`
+//!   its `mean`; [`load`] reads any of them from a file, older versions
+//!   included.
+//! - Every key is described once, next to its struct, with unit, meaning
+//!   and how `total` and `mean` reduce it ([`keys`]); `docs/report.md`'s
+//!   key lists are generated from these tables ([`docs`]).
+//!
+//! Rules:
+//! 1. `report_version` is [`REPORT_VERSION`]; `kind` says which command
+//!    wrote the report. Keys are added freely; a rename bumps the version.
+//! 2. Every byte is deterministic for a given trace and configuration
+//!    except host times (`host_ms`, `golden_host_ms`, `prepare_ms`).
+//!    Non-finite numbers are written as `null`.
+//! 3. `total` and `mean` are reduced from `frames` by the key rules of
+//!    [`keys`], the same in every report; ratios are derived from counters
+//!    at report time, never stored by the engines.
+//! 4. Version 1 (files without `report_version`) reads through [`load`]:
+//!    renamed keys get their new names (`kernels_over_4x4` →
+//!    `kernels_over_limit`, `bandwidth_gbps_at_target_rate` →
+//!    `dram_gbps_at_target_rate`, `dest_cache.hit_rate` →
+//!    `dest_cache_hit_rate`), and `total` and `mean` are computed again
+//!    from the frames by the version-2 rules (version 1 summed histograms
+//!    in `mean` and averaged only some keys).
 
 pub mod csv;
+pub mod docs;
+pub mod golden;
+pub mod hardware;
 pub mod images;
+pub mod keys;
+mod legacy;
+pub mod method;
+pub mod quality;
+pub mod simulate;
 pub mod table;
 pub mod timeline;
 
-use serde_json::{Map, Value, json};
+pub use golden::GoldenReport;
+pub use method::MethodReport;
+pub use simulate::SimulateReport;
 
-/// Metric keys in report order (the `Quality` fields).
-pub fn metric_keys() -> Vec<&'static str> {
-    crate::metrics::describe().iter().map(|d| d.key).collect()
+use anyhow::{Context, bail};
+use keys::{KeyDoc, Reduce, scalar};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+use std::path::Path;
+
+/// The version of `report.json` this build writes (module rule 1).
+pub const REPORT_VERSION: u32 = 2;
+
+/// Which command wrote a report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ReportKind {
+    /// `postwarp golden`.
+    Golden,
+    /// `postwarp golden --method`.
+    Method,
+    /// `postwarp simulate`.
+    Simulate,
 }
 
-/// Per-frame entry: `index`, every metric key (null without ground truth),
-/// `host_ms`, then `extra` (model counters).
-pub fn frame_entry(index: usize, quality: Option<&crate::metrics::Quality>, host_ms: f64, extra: Value) -> Value {
-    let mut m = Map::new();
-    m.insert("index".into(), json!(index));
-    let q = quality.map(|q| serde_json::to_value(q).expect("Quality serializes"));
-    for key in metric_keys() {
-        let v = q.as_ref().and_then(|q| q.get(key).cloned()).unwrap_or(Value::Null);
-        m.insert(key.into(), v);
-    }
-    m.insert("host_ms".into(), json!(host_ms));
-    if let Value::Object(e) = extra {
-        for (k, v) in e {
-            m.insert(k, v);
-        }
-    }
-    Value::Object(m)
+/// Any report.
+// A report is read once per file and matched at once: boxing the larger
+// variants would buy nothing.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Debug, PartialEq)]
+pub enum Report {
+    /// `postwarp golden`.
+    Golden(GoldenReport),
+    /// `postwarp golden --method`.
+    Method(MethodReport),
+    /// `postwarp simulate`.
+    Simulate(SimulateReport),
 }
 
-/// Mean over frames of every numeric key present in all of them. Null
-/// entries (non-finite values: a PSNR of +∞ for an identical frame, or a
-/// metric with nothing to score) are skipped, so a mean PSNR is over the
-/// frames with a finite PSNR; a key null in every frame is null. Histograms
-/// (arrays) are summed element-wise instead and reported as totals under
-/// the same key.
-pub fn mean_entry(frames: &[Value]) -> Value {
-    let mut out = Map::new();
-    let Some(Value::Object(first)) = frames.first() else { return Value::Object(out) };
-    for key in first.keys() {
-        if key == "index" {
-            continue;
-        }
-        let vals: Vec<&Value> = frames.iter().filter_map(|f| f.get(key)).collect();
-        if vals.iter().all(|v| v.is_array()) {
-            out.insert(key.clone(), sum_arrays(&vals));
-            continue;
-        }
-        let nums: Vec<f64> = vals.iter().filter_map(|v| v.as_f64()).collect();
-        let v = if nums.is_empty() { Value::Null } else { json!(nums.iter().sum::<f64>() / nums.len() as f64) };
-        out.insert(key.clone(), v);
-    }
-    Value::Object(out)
+/// `total` and `mean` of `frames` by the key rules; `extra` adds keys to
+/// `total` (e.g. `frames`) before it is read into `T`.
+pub(crate) fn reduce<F: Serialize, T: DeserializeOwned, M: DeserializeOwned>(
+    frames: &[F],
+    keys: &[KeyDoc],
+    extra: impl FnOnce(&mut Map<String, Value>),
+) -> (T, M) {
+    let values: Vec<Value> = frames.iter().map(|f| serde_json::to_value(f).expect("frames serialize")).collect();
+    let refs: Vec<&Value> = values.iter().collect();
+    let mut t = Map::new();
+    extra(&mut t);
+    t.extend(keys::total(&refs, keys));
+    let m = keys::mean(&refs, keys, frames.len());
+    let total = serde_json::from_value(Value::Object(t)).expect("the total has the total struct's keys");
+    let mean = serde_json::from_value(Value::Object(m)).expect("the mean has the mean struct's keys");
+    (total, mean)
 }
 
-fn sum_arrays(vals: &[&Value]) -> Value {
-    let mut acc: Vec<Value> = Vec::new();
-    for v in vals {
-        let Value::Array(a) = v else { continue };
-        if acc.len() < a.len() {
-            acc.resize(a.len(), Value::Null);
-        }
-        for (i, x) in a.iter().enumerate() {
-            acc[i] = match (&acc[i], x) {
-                (Value::Null, Value::Array(_)) => sum_arrays(&[x]),
-                (Value::Array(_), Value::Array(_)) => sum_arrays(&[&acc[i], x]),
-                (a, b) => json!(a.as_f64().unwrap_or(0.0) + b.as_f64().unwrap_or(0.0)),
-            };
-        }
-    }
-    Value::Array(acc)
+/// The header keys every report starts with.
+pub(crate) fn header_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "report_version",
+            "—",
+            Reduce::Once,
+            "version of this layout (2); files without it are version 1 (`docs/report.md`, reading older files)",
+        ),
+        scalar(
+            "kind",
+            "—",
+            Reduce::Once,
+            "the command that wrote it: `golden`, `method` (`golden --method`) or `simulate`",
+        ),
+        scalar("trace", "—", Reduce::Once, "path of the trace manifest"),
+    ]
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
+/// The keys of `total`: `frames`, then the frame keys that are summed or
+/// maxed (objects keep only such keys).
+pub(crate) fn total_keys(frame: Vec<KeyDoc>) -> Vec<KeyDoc> {
+    let mut k = vec![scalar("frames", "frames", Reduce::Once, "derived frames in the report")];
+    k.extend(frame.into_iter().filter(|k| matches!(k.reduce, Reduce::Sum | Reduce::Max)));
+    k
+}
 
-    #[test]
-    fn mean_skips_nulls_and_sums_histograms() {
-        let frames = vec![
-            json!({"index": 0, "psnr": 20.0, "x": null, "h": [1, 2], "k": [[1, 0], [2]]}),
-            json!({"index": 1, "psnr": 30.0, "x": null, "h": [0, 1, 5], "k": [[1, 1], [0, 3]]}),
-        ];
-        let m = mean_entry(&frames);
-        assert_eq!(m["psnr"], json!(25.0));
-        assert_eq!(m["x"], Value::Null);
-        assert_eq!(m["h"], json!([1.0, 3.0, 5.0]));
-        assert_eq!(m["k"], json!([[2.0, 1.0], [2.0, 3.0]]));
-        assert!(m.get("index").is_none());
-    }
+/// The keys of `mean`: the frame keys but the per-frame ones.
+pub(crate) fn mean_keys(frame: Vec<KeyDoc>) -> Vec<KeyDoc> {
+    frame.into_iter().filter(|k| k.reduce != Reduce::Once).collect()
+}
+
+/// Read a report from the text of file `path` (any version this build
+/// knows; module rule 4). Errors name the file.
+pub fn parse(text: &str, path: &Path) -> anyhow::Result<Report> {
+    let v: Value = serde_json::from_str(text).with_context(|| format!("{}: not a JSON report", path.display()))?;
+    let version = match v.get("report_version") {
+        None => 1,
+        Some(n) => match n.as_u64() {
+            Some(n) if n >= 1 => n,
+            _ => bail!("{}: report_version = {n}; expected a whole number >= 1", path.display()),
+        },
+    };
+    let r = match version {
+        1 => legacy::upgrade(v).with_context(|| format!("{}: reading a version-1 report", path.display()))?,
+        REPORT_VERSION_U64 => from_value(v).with_context(|| format!("{}: not a version-2 report", path.display()))?,
+        n => bail!(
+            "{}: report_version {n} was written by a newer postwarp; this build reads versions 1 to {REPORT_VERSION}",
+            path.display()
+        ),
+    };
+    Ok(r)
+}
+
+const REPORT_VERSION_U64: u64 = REPORT_VERSION as u64;
+
+fn from_value(v: Value) -> anyhow::Result<Report> {
+    let kind: ReportKind = serde_json::from_value(v.get("kind").cloned().unwrap_or(Value::Null))
+        .context("`kind`: expected `golden`, `method` or `simulate`")?;
+    Ok(match kind {
+        ReportKind::Golden => Report::Golden(serde_json::from_value(v)?),
+        ReportKind::Method => Report::Method(serde_json::from_value(v)?),
+        ReportKind::Simulate => Report::Simulate(serde_json::from_value(v)?),
+    })
+}
+
+/// Read the report in file `path` (a `report.json`, or a folder holding
+/// one).
+pub fn load(path: &Path) -> anyhow::Result<Report> {
+    let file = if path.is_dir() { path.join("report.json") } else { path.to_path_buf() };
+    let text = crate::io_util::read_text(&file, "report (report.json)")?;
+    parse(&text, &file)
+}
+
+/// Write `report` as `report.json` in `dir` (pretty, one trailing line
+/// break), atomically.
+pub fn write<R: Serialize>(report: &R, dir: &Path) -> anyhow::Result<()> {
+    let text = serde_json::to_string_pretty(report)? + "\n";
+    let path = dir.join("report.json");
+    crate::io_util::write_bytes_atomically(&path, text.as_bytes())?;
+    Ok(())
 }

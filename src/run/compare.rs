@@ -14,21 +14,41 @@
 
 use super::method::run_method;
 use crate::methods::{HoleFill, Reconstruction};
+use crate::report::method::MethodMean;
 use crate::trace::Trace;
 use anyhow::Context;
-use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Columns of the table: (report key in `mean`, CSV header with unit,
-/// Markdown header, decimals).
-pub const COLUMNS: &[(&str, &str, &str, usize)] = &[
-    ("primitives", "primitives_per_frame", "primitives", 0),
-    ("host_ms", "host_ms_per_frame", "host ms", 2),
-    ("psnr_luma_db", "psnr_luma_db", "PSNR luma dB", 2),
-    ("ssim_luma", "ssim_luma", "SSIM", 4),
-    ("flip_mean", "flip_mean", "FLIP", 4),
-    ("hole_fraction", "hole_fraction", "holes %", 2),
+/// A column of the table: the report's `mean` value, CSV header with
+/// unit, Markdown header, decimals, scale for print.
+pub struct Column {
+    /// The value in the run's `mean`.
+    pub value: fn(&MethodMean) -> Option<f64>,
+    /// `compare.csv` header (with unit).
+    pub csv: &'static str,
+    /// `compare.md` header.
+    pub markdown: &'static str,
+    /// Decimals in `compare.md` (two more in `compare.csv`).
+    pub decimals: usize,
+    /// Scale in `compare.md` (100 for a fraction shown as %).
+    pub scale: f64,
+}
+
+/// Columns of the table, read from the report's `mean` (typed).
+pub const COLUMNS: &[Column] = &[
+    Column {
+        value: |m| Some(m.primitives),
+        csv: "primitives_per_frame",
+        markdown: "primitives",
+        decimals: 0,
+        scale: 1.0,
+    },
+    Column { value: |m| Some(m.host_ms), csv: "host_ms_per_frame", markdown: "host ms", decimals: 2, scale: 1.0 },
+    Column { value: |m| m.scores.psnr_luma_db, csv: "psnr_luma_db", markdown: "PSNR luma dB", decimals: 2, scale: 1.0 },
+    Column { value: |m| m.scores.ssim_luma, csv: "ssim_luma", markdown: "SSIM", decimals: 4, scale: 1.0 },
+    Column { value: |m| m.scores.flip_mean, csv: "flip_mean", markdown: "FLIP", decimals: 4, scale: 1.0 },
+    Column { value: |m| m.scores.hole_fraction, csv: "hole_fraction", markdown: "holes %", decimals: 2, scale: 100.0 },
 ];
 
 /// One row: trace name, method, hole fill, and the mean entry.
@@ -40,7 +60,7 @@ pub struct Row {
     /// Hole-fill name.
     pub hole_fill: String,
     /// The run's `mean` entry.
-    pub mean: Value,
+    pub mean: MethodMean,
 }
 
 fn trace_name(p: &Path) -> String {
@@ -63,12 +83,7 @@ pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) ->
             let dir = out.join(&name).join(format!("{m}+{f}"));
             let r = run_method(&trace, rec.as_ref(), fill.as_ref(), runs, &dir)
                 .with_context(|| format!("{name}: method {m} with hole fill {f}"))?;
-            rows.push(Row {
-                trace: name.clone(),
-                method: m.into(),
-                hole_fill: f.into(),
-                mean: r.report["mean"].clone(),
-            });
+            rows.push(Row { trace: name.clone(), method: m.into(), hole_fill: f.into(), mean: r.report.mean.clone() });
         }
     }
     let csv = csv(&rows);
@@ -78,22 +93,22 @@ pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) ->
     Ok(rows)
 }
 
-fn cell(v: &Value, key: &str, decimals: usize, scale: f64) -> String {
-    v.get(key).and_then(Value::as_f64).map_or("-".into(), |x| format!("{:.*}", decimals, x * scale))
+fn cell(v: Option<f64>, decimals: usize, scale: f64) -> String {
+    v.map_or("-".into(), |x| format!("{:.*}", decimals, x * scale))
 }
 
 /// `compare.csv`: one row per (trace, method, hole fill).
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from("trace,method,hole_fill");
-    for (_, h, _, _) in COLUMNS {
+    for c in COLUMNS {
         s += ",";
-        s += h;
+        s += c.csv;
     }
     s.push('\n');
     for r in rows {
         let _ = write!(s, "{},{},{}", r.trace, r.method, r.hole_fill);
-        for (k, _, _, d) in COLUMNS {
-            let _ = write!(s, ",{}", cell(&r.mean, k, d + 2, 1.0));
+        for c in COLUMNS {
+            let _ = write!(s, ",{}", cell((c.value)(&r.mean), c.decimals + 2, 1.0));
         }
         s.push('\n');
     }
@@ -103,17 +118,16 @@ pub fn csv(rows: &[Row]) -> String {
 /// `compare.md`: the Markdown table.
 pub fn markdown(rows: &[Row]) -> String {
     let mut s = String::from("| trace | method | hole fill |");
-    for (_, _, h, _) in COLUMNS {
-        let _ = write!(s, " {h} |");
+    for c in COLUMNS {
+        let _ = write!(s, " {} |", c.markdown);
     }
     s += "\n|---|---|---|";
     s += &"---:|".repeat(COLUMNS.len());
     s.push('\n');
     for r in rows {
         let _ = write!(s, "| {} | {} | {} |", r.trace, r.method, r.hole_fill);
-        for (k, _, _, d) in COLUMNS {
-            let scale = if *k == "hole_fraction" { 100.0 } else { 1.0 };
-            let _ = write!(s, " {} |", cell(&r.mean, k, *d, scale));
+        for c in COLUMNS {
+            let _ = write!(s, " {} |", cell((c.value)(&r.mean), c.decimals, c.scale));
         }
         s.push('\n');
     }

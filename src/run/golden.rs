@@ -13,14 +13,17 @@
 //!    `valid` = real surface), `holes-NNNN.png`, and with ground truth
 //!    `diff-NNNN.png`. Then `report.json`. All written atomically.
 
+use super::frame_exr::{Planes, derived_samples, write_frame_exr};
 use crate::golden::config::GoldenConfig;
 use crate::golden::frame::{GoldenFrame, PreparedReference, Warper, prepare_reference};
+use crate::report::GoldenReport;
+use crate::report::golden::{GoldenCounters, GoldenFrame as FrameEntry, GoldenReferences};
 use crate::report::images::write_hole_mask;
-use crate::report::{frame_entry, mean_entry, table};
-use crate::trace::{SlopeSource, Trace, write_reference_image};
+use crate::report::quality::{Pixels, Scores};
+use crate::report::table;
+use crate::trace::Trace;
 use anyhow::Context;
 use postwarp_rtl::SampleImage;
-use serde_json::{Value, json};
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -28,26 +31,27 @@ use std::time::Instant;
 /// What a golden run produced.
 pub struct GoldenRun {
     /// The report (`report.json` contents).
-    pub report: Value,
+    pub report: GoldenReport,
     /// The printed table.
     pub table: String,
 }
 
+fn planes(f: &GoldenFrame) -> Planes<'_> {
+    let d = &f.samples;
+    Planes {
+        width: d.width,
+        height: d.height,
+        colour: &d.colour,
+        inv_z: &d.inv_z,
+        slopes: &d.slopes,
+        source: &d.source,
+        real: &d.real,
+    }
+}
+
 /// The derived frame's samples in the reference-image format.
 pub fn frame_samples(f: &GoldenFrame) -> SampleImage {
-    let d = &f.samples;
-    let mut s = SampleImage::empty(d.width, d.height);
-    for i in 0..d.len() {
-        s.colour[i] = d.colour[i];
-        s.inv_z_slopes[i] = d.slopes[i];
-        // `id` holds 1 + the writing reference's position in the warp list.
-        s.object_id[i] = if d.real[i] { d.source[i] as u32 + 1 } else { 0 };
-        if d.real[i] {
-            s.z[i] = 1.0 / d.inv_z[i];
-            s.valid.set(i, true);
-        }
-    }
-    s
+    derived_samples(&planes(f))
 }
 
 /// Run the golden model on `trace` with `cfg`, writing into `out`.
@@ -58,7 +62,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
     let (w, h) = (trace.display.width, trace.display.height);
     let last_use = trace.last_use();
     let mut prepared: HashMap<usize, PreparedReference> = HashMap::new();
-    let mut slopes = vec![Value::Null; trace.references.len()];
+    let mut slopes: Vec<Option<String>> = vec![None; trace.references.len()];
     let mut prepare_ms = 0.0;
     let mut frames = Vec::new();
     let mut warper = Warper::new();
@@ -67,7 +71,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         for &r in &f.references {
             if let std::collections::hash_map::Entry::Vacant(e) = prepared.entry(r) {
                 let loaded = trace.load_reference(r)?;
-                slopes[r] = json!(loaded.slopes.name());
+                slopes[r] = Some(loaded.slopes.name().to_string());
                 let t = Instant::now();
                 e.insert(prepare_reference(&loaded.samples, ss, cfg));
                 prepare_ms += t.elapsed().as_secs_f64() * 1e3;
@@ -80,23 +84,26 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
         let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out))?;
         write_frame_files(out, k, &frame, w, h, ss)?;
-        frames.push(frame_entry(k, quality.as_ref(), host_ms, stats_json(&frame)));
+        frames.push(FrameEntry {
+            index: k,
+            scores: Scores::of(quality.as_ref()),
+            pixels: Pixels::of(quality.as_ref()),
+            host_ms,
+            counters: GoldenCounters::of(&frame.stats),
+        });
         prepared.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let mean = mean_entry(&frames);
-    let table = table::render(&frames, &mean);
-    let report = json!({
-        "trace": trace.manifest.display().to_string(),
-        "method": method_name(cfg),
-        "config": serde_json::to_value(cfg)?,
-        "references": {"slopes": slopes, "prepare_ms": prepare_ms},
-        "frames": frames,
-        "mean": mean,
-    });
-    let text = serde_json::to_string_pretty(&report)? + "\n";
-    crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+    let report = GoldenReport::new(
+        trace.manifest.display().to_string(),
+        method_name(cfg).into(),
+        cfg.clone(),
+        GoldenReferences { slopes, prepare_ms },
+        frames,
+    );
+    let table = table::golden_table(&report);
+    crate::report::write(&report, out)?;
     Ok(GoldenRun { report, table })
 }
 
@@ -108,13 +115,9 @@ pub fn method_name(cfg: &GoldenConfig) -> &'static str {
     }
 }
 
-fn stats_json(f: &GoldenFrame) -> Value {
-    serde_json::to_value(&f.stats).expect("stats serialize")
-}
-
 fn write_frame_files(out: &Path, k: usize, f: &GoldenFrame, w: u32, h: u32, ss: u32) -> anyhow::Result<()> {
     crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &f.pixels)?;
-    write_reference_image(&out.join(format!("frame-{k:04}.exr")), &frame_samples(f), SlopeSource::Exact)?;
+    write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes(f))?;
     write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &f.samples.real, &f.samples.hole)?;
     Ok(())
 }

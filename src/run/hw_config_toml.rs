@@ -5,7 +5,7 @@
 //! an invalid value is rejected with a message naming the file and the knob;
 //! `preset = "NAME"` in the file picks the base (default `mark1998`).
 
-use anyhow::{Context, anyhow, bail};
+use anyhow::{anyhow, bail};
 use postwarp_rtl::config::{EngineConfig, KNOBS};
 use std::path::Path;
 
@@ -55,7 +55,7 @@ pub fn load(config: Option<&Path>, preset: Option<&str>) -> anyhow::Result<Engin
         (Some(_), Some(_)) => bail!("give --config or --preset, not both (a config file may name `preset = \"...\"`)"),
         (None, p) => EngineConfig::preset(p.unwrap_or("mark1998")).map_err(|e| anyhow!(e))?,
         (Some(path), None) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            let text = crate::io_util::read_text(path, "hardware configuration (TOML)")?;
             return from_text(&text, path);
         }
     };
@@ -86,20 +86,93 @@ pub fn parse(text: &str) -> anyhow::Result<EngineConfig> {
     Ok(c)
 }
 
-/// Every knob as `{name: value}`, in [`KNOBS`] order, for `report.json`.
-pub fn to_json(c: &EngineConfig) -> serde_json::Value {
-    let mut m = serde_json::Map::new();
-    let text = format!("{c:?}");
-    for (name, _, _) in KNOBS {
-        // Field values from the Debug form: `name: value`.
-        let start = text.find(&format!("{name}: ")).expect("every knob is a field") + name.len() + 2;
-        let rest = &text[start..];
-        let end = rest.find([',', ' ', '}']).unwrap_or(rest.len());
-        let raw = &rest[..end];
-        let v: serde_json::Value = serde_json::from_str(raw).unwrap_or(serde_json::Value::String(raw.into()));
-        m.insert(name.to_string(), v);
+/// The value of knob `key` of `c` (a name of [`KNOBS`]).
+pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
+    use toml::Value as V;
+    let i = |n: u64| V::Integer(i64::try_from(n).unwrap_or(i64::MAX));
+    Some(match key {
+        "supersample" => i(c.supersample.into()),
+        "max_fragments" => i(c.max_fragments.into()),
+        "kernel_limit" => i(c.kernel_limit.into()),
+        "rects_per_cycle" => i(c.rects_per_cycle.into()),
+        "transform_latency" => i(c.transform_latency.into()),
+        "transform_throughput" => i(c.transform_throughput.into()),
+        "tile_size" => i(c.tile_size.into()),
+        "dest_cache_bytes" => i(c.dest_cache_bytes),
+        "source_cache_bytes" => i(c.source_cache_bytes),
+        "dram_peak_bytes_per_cycle" => i(c.dram_peak_bytes_per_cycle),
+        "dram_latency_cycles" => i(c.dram_latency_cycles),
+        "dram_burst_bytes" => i(c.dram_burst_bytes),
+        "dram_max_outstanding" => i(c.dram_max_outstanding.into()),
+        "clock_hz" => i(c.clock_hz),
+        "target_frame_rate_hz" => V::Float(c.target_frame_rate_hz),
+        "display_width" => i(c.display_width.into()),
+        "display_height" => i(c.display_height.into()),
+        "views" => i(c.views.into()),
+        "references_per_frame" => i(c.references_per_frame.into()),
+        "threshold" => V::Float(c.threshold),
+        "slope_tol" => V::Float(c.slope_tol),
+        "rel_tol" => V::Float(c.rel_tol),
+        "better_margin" => V::Float(c.better_margin),
+        "hole_far_distance" => i(c.hole_far_distance.into()),
+        "hole_far_offset" => i(c.hole_far_offset.into()),
+        "hole_max_distance" => i(c.hole_max_distance.into()),
+        "hole_fill_per_cycle" => i(c.hole_fill_per_cycle.into()),
+        _ => return None,
+    })
+}
+
+fn json_of(v: &toml::Value) -> serde_json::Value {
+    match v {
+        toml::Value::Integer(n) => serde_json::Value::from(*n),
+        toml::Value::Float(x) => serde_json::Value::from(*x),
+        other => serde_json::Value::String(other.to_string()),
     }
-    serde_json::Value::Object(m)
+}
+
+/// Every knob as `{name: value}`, in [`KNOBS`] order, for `report.json`.
+pub fn to_json_map(c: &EngineConfig) -> serde_json::Map<String, serde_json::Value> {
+    KNOBS
+        .iter()
+        .map(|(name, _, _)| (name.to_string(), json_of(&get(c, name).expect("every knob has a value"))))
+        .collect()
+}
+
+/// [`to_json_map`] as a value.
+pub fn to_json(c: &EngineConfig) -> serde_json::Value {
+    serde_json::Value::Object(to_json_map(c))
+}
+
+/// The configuration a `config` object of `report.json` describes (knobs
+/// absent from it keep `mark1998`'s values).
+pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::Result<EngineConfig> {
+    let mut c = EngineConfig::default();
+    for (k, v) in m {
+        let t = match v {
+            serde_json::Value::Number(n) if n.is_i64() || n.is_u64() => {
+                toml::Value::Integer(n.as_i64().ok_or_else(|| anyhow!("{k}: {n} is too large"))?)
+            }
+            serde_json::Value::Number(n) => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
+            other => bail!("{k}: {other} is not a number"),
+        };
+        set(&mut c, k, &t).map_err(|e| anyhow!("{k}: {e}"))?;
+    }
+    Ok(c)
+}
+
+/// `c` as a configuration file `--config` reads back to `c`: every knob in
+/// [`KNOBS`] order, each after a comment with its unit and description.
+pub fn dump(c: &EngineConfig, header: &str) -> String {
+    let mut s = String::new();
+    for line in header.lines() {
+        s.push_str(&format!("# {line}\n"));
+    }
+    s.push_str("# Every knob of the hardware model (docs/units.md); `postwarp simulate --config FILE` reads it.\n");
+    for (name, unit, desc) in KNOBS {
+        let v = get(c, name).expect("every knob has a value");
+        s.push_str(&format!("\n# {desc} ({unit})\n{name} = {v}\n"));
+    }
+    s
 }
 
 #[cfg(test)]
@@ -128,5 +201,23 @@ mod tests {
         assert_eq!(j.as_object().unwrap().len(), KNOBS.len());
         assert_eq!(j["dest_cache_bytes"], 589_824);
         assert_eq!(j["threshold"], 1.4);
+        assert_eq!(j["target_frame_rate_hz"], 30.0);
+    }
+
+    #[test]
+    fn a_dumped_configuration_reads_back_exactly_with_every_knob() {
+        for preset in postwarp_rtl::config::PRESETS {
+            let mut c = EngineConfig::preset(preset).unwrap();
+            c.target_frame_rate_hz = 72.5;
+            c.rel_tol = 0.1 + 0.2;
+            let text = dump(&c, "made by a test\nsecond line");
+            assert!(text.starts_with("# made by a test\n# second line\n"), "{text}");
+            for (name, unit, _) in KNOBS {
+                assert!(text.contains(&format!("\n{name} = ")), "{name} missing");
+                assert!(text.contains(&format!("({unit})\n{name} = ")), "{name}: no unit comment");
+            }
+            assert_eq!(parse(&text).unwrap(), c, "{preset}");
+            assert_eq!(from_json_map(&to_json_map(&c)).unwrap(), c);
+        }
     }
 }

@@ -18,11 +18,13 @@
 //!    nothing and returns the same report (`postwarp sweep`).
 
 use crate::methods::{self, HoleFill, Input, MethodFrame, Prepared, Reconstruction};
+use crate::report::MethodReport;
 use crate::report::images::write_hole_mask;
-use crate::report::{frame_entry, mean_entry, table};
+use crate::report::method::{MethodCounters, MethodFrame as FrameEntry, MethodHeader, MethodReferences};
+use crate::report::quality::{Pixels, Scores};
+use crate::report::table;
 use crate::trace::Trace;
 use anyhow::Context;
-use serde_json::{Value, json};
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -32,7 +34,7 @@ use super::timing::timed;
 /// What a method run produced.
 pub struct MethodRun {
     /// The report (`report.json` contents).
-    pub report: Value,
+    pub report: MethodReport,
     /// The printed table.
     pub table: String,
 }
@@ -124,39 +126,34 @@ pub fn measure_method(
                 &frame.samples.hole,
             )?;
         }
-        let mut extra = serde_json::Map::new();
-        extra.insert("primitives".into(), json!(frame.reconstruction.primitives));
-        extra.insert("hole_samples".into(), json!(frame.samples.hole.count_ones()));
         let empty = (0..frame.samples.len()).filter(|&i| !frame.samples.real[i] && !frame.samples.hole[i]).count();
-        extra.insert("empty_samples".into(), json!(empty));
-        extra.insert("reconstruction".into(), Value::Object(frame.reconstruction.extra.clone()));
-        extra.insert("hole_fill".into(), Value::Object(frame.hole_fill.extra.clone()));
-        frames.push(frame_entry(k, quality.as_ref(), median(times), Value::Object(extra)));
+        frames.push(FrameEntry {
+            index: k,
+            scores: Scores::of(quality.as_ref()),
+            pixels: Pixels::of(quality.as_ref()),
+            host_ms: median(times),
+            primitives: frame.reconstruction.primitives,
+            hole_samples: frame.samples.hole.count_ones() as u64,
+            empty_samples: empty as u64,
+            reconstruction: MethodCounters(frame.reconstruction.extra.clone()),
+            hole_fill: MethodCounters(frame.hole_fill.extra.clone()),
+        });
         loaded.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
-    let mut mean = mean_entry(&frames);
-    if let Value::Object(m) = &mut mean {
-        // Nested counter objects are per frame only.
-        m.remove("reconstruction");
-        m.remove("hole_fill");
-    }
-    let table = table::render(&frames, &mean);
     let info = rec.info();
-    let report = json!({
-        "trace": trace.manifest.display().to_string(),
-        "method": info.name,
-        "hole_fill": fill.info().name,
-        "paper": info.paper,
-        "primitive": info.primitive,
-        "runs": runs,
-        "references": {"prepare_ms": prepare_ms},
-        "frames": frames,
-        "mean": mean,
-    });
+    let header = MethodHeader {
+        trace: trace.manifest.display().to_string(),
+        method: info.name.into(),
+        hole_fill: fill.info().name.into(),
+        paper: info.paper.into(),
+        primitive: info.primitive.into(),
+        runs,
+    };
+    let report = MethodReport::new(header, MethodReferences { prepare_ms }, frames);
+    let table = table::method_table(&report);
     if let Some(out) = out {
-        let text = serde_json::to_string_pretty(&report)? + "\n";
-        crate::io_util::write_bytes_atomically(&out.join("report.json"), text.as_bytes())?;
+        crate::report::write(&report, out)?;
     }
     Ok(MethodRun { report, table })
 }

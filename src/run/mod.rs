@@ -2,6 +2,7 @@
 //! report files. One file per engine run.
 
 pub mod compare;
+pub mod frame_exr;
 pub mod golden;
 pub mod hw_config;
 pub mod hw_config_toml;

@@ -67,7 +67,7 @@ pub fn evaluate(stage: Stage, trace: &Trace, cfg: &EngineConfig) -> anyhow::Resu
     let quiet = indicatif::ProgressBar::hidden();
     let r = measure_hardware(trace, cfg, None, &quiet)?;
     let m = Metrics::from_hardware_report(&r.report);
-    let capacity_misses = r.report["total"]["dest_cache"]["misses_capacity"].as_u64().unwrap_or(0);
+    let capacity_misses = r.report.total.counters.dest_cache.misses_capacity;
     let c = Candidate {
         stage,
         supersample: cfg.supersample,

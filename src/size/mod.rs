@@ -104,7 +104,7 @@ pub struct Options {
     pub preset: String,
     /// Derived frames used (the first N), or all.
     pub frames: Option<usize>,
-    /// Where regenerated traces are cached (`DIR/traces/`).
+    /// Where regenerated traces are cached (`cache_dir/traces/`).
     pub cache_dir: PathBuf,
     /// DRAM traffic a smaller cache may add over the miss-free one
     /// (fraction of its DRAM bytes per frame; 0 = no capacity misses).
@@ -130,6 +130,42 @@ pub struct Outcome {
     pub chosen: Option<usize>,
     /// The chosen configuration in full.
     pub config: Option<EngineConfig>,
+    /// The trace each super-sampling was run on: (samples, directory).
+    pub trace_dirs: Vec<(u32, PathBuf)>,
+    /// The ground truth every candidate was scored against: the trace
+    /// whose truth it is, and the super-sampling it was rendered at
+    /// (`variants` rule 3).
+    pub truth: (u32, PathBuf),
+    /// The trace's own super-sampling (samples).
+    pub own_supersample: u32,
+    /// The output folder (`--out`), if any: paths under it are named
+    /// relative to it in the files written there.
+    pub out: Option<PathBuf>,
+}
+
+impl Outcome {
+    /// The trace the chosen configuration was scored on.
+    pub fn scored_on(&self) -> Option<&Path> {
+        let ss = self.config.as_ref()?.supersample;
+        self.trace_dirs.iter().find(|(s, _)| *s == ss).map(|(_, d)| d.as_path())
+    }
+
+    /// Every path under `from` named as under `to` instead (a folder built
+    /// under a temporary name, then renamed).
+    pub fn relocate(&mut self, from: &Path, to: &Path) {
+        let fix = |p: &mut PathBuf| {
+            if let Ok(rest) = p.strip_prefix(from) {
+                *p = to.join(rest);
+            }
+        };
+        for (_, d) in &mut self.trace_dirs {
+            fix(d);
+        }
+        fix(&mut self.truth.1);
+        if let SsSource::Regenerated { cache, .. } = &mut self.ss_source {
+            fix(cache);
+        }
+    }
 }
 
 impl Outcome {
@@ -172,6 +208,16 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
         candidates: Vec::new(),
         chosen: None,
         config: None,
+        trace_dirs: traces.iter().map(|t| (t.supersample, t.dir.clone())).collect(),
+        truth: {
+            let hi = traces.last().expect("at least the trace itself");
+            (hi.supersample, hi.dir.clone())
+        },
+        own_supersample: traces
+            .iter()
+            .find(|t| !t.dir.starts_with(&o.cache_dir))
+            .map_or(traces[0].supersample, |t| t.supersample),
+        out: None,
     };
     // Quality stage (rule 2).
     let mut found = None;
@@ -286,11 +332,14 @@ fn check_same_image(c: &Candidate, q: &Candidate) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// `run_size`, then the files of [`output`] in `out` (if given); an error
-/// if nothing met the floor, after writing the candidates.
-pub fn size_and_write(o: &Options, out_dir: Option<&Path>) -> anyhow::Result<Outcome> {
-    let r = run_size(o)?;
-    if let Some(d) = out_dir {
+/// `run_size`, then the files of [`output`] in `out_dir` (if given), the
+/// paths they name shown as under `shown_dir` (the final folder, when
+/// `out_dir` is its temporary name).
+pub fn size_and_write(o: &Options, out_dir: Option<(&Path, &Path)>) -> anyhow::Result<Outcome> {
+    let mut r = run_size(o)?;
+    if let Some((d, shown)) = out_dir {
+        r.relocate(d, shown);
+        r.out = Some(shown.to_path_buf());
         output::write_files(&r, d)?;
     }
     Ok(r)

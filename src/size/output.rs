@@ -65,16 +65,56 @@ pub fn csv(o: &Outcome) -> String {
     s
 }
 
+/// What the chosen configuration's quality figure was scored against, as
+/// lines of text (the config file's header and the printed report).
+pub fn scored_against(o: &Outcome) -> Vec<String> {
+    let (Some(i), Some(c)) = (o.chosen, o.config.as_ref()) else { return Vec::new() };
+    let q = &o.candidates[i];
+    // A path in the output folder is named relative to it (the folder can
+    // move; the files stay the same bytes wherever it is).
+    let shown = |p: &std::path::Path| match o.out.as_deref().and_then(|d| p.strip_prefix(d).ok()) {
+        Some(rest) => format!("{} (in the output folder)", rest.display()),
+        None => p.display().to_string(),
+    };
+    let on = o.scored_on().map_or_else(|| o.trace.display().to_string(), shown);
+    let (truth_ss, truth_dir) = (&o.truth.0, shown(&o.truth.1));
+    let mut v = vec![format!(
+        "quality: mean luma PSNR {:.3} dB, SSIM {:.4} over {} frames, measured by `postwarp simulate`'s code on the \
+             trace {on} ({}x{} super-samples) against the ground truth of {truth_dir} (rendered at {truth_ss}x{truth_ss})",
+        q.psnr_luma_db.unwrap_or(f64::NAN),
+        q.ssim_luma.unwrap_or(f64::NAN),
+        q.frames,
+        c.supersample,
+        c.supersample,
+    )];
+    let own = o.own_supersample;
+    if o.scored_on() == Some(o.truth.1.as_path()) {
+        v.push(format!("reproduce: postwarp simulate {on} --config config.toml --out OUT"));
+    } else if c.supersample == own {
+        v.push(format!(
+            "`postwarp simulate {on} --config config.toml` scores against that trace's own ground truth \
+             ({own}x{own}) instead, so it can report another figure"
+        ));
+    } else {
+        v.push(format!(
+            "`postwarp simulate {on} --config config.toml` scores against that trace's own ground truth instead; on \
+             {} it runs at the trace's {own}x{own} super-samples; either can report another figure",
+            o.trace.display()
+        ));
+    }
+    v
+}
+
 /// The configuration as TOML for `postwarp simulate --config`.
 pub fn toml(o: &Outcome) -> Option<String> {
     let c = o.config.as_ref()?;
     let mut s = String::new();
     let _ = writeln!(s, "# postwarp size {}: {}", o.trace.display(), o.floor.describe());
-    let _ = writeln!(
-        s,
-        "# simulate it on the trace with supersample = {} (the trace's super-sampling wins)",
-        c.supersample
-    );
+    for line in scored_against(o) {
+        let _ = writeln!(s, "# {line}");
+    }
+    let _ =
+        writeln!(s, "# simulate it on a trace with supersample = {} (the trace's super-sampling wins)", c.supersample);
     let _ = writeln!(s, "preset = \"{}\"", o.preset);
     let _ = writeln!(s, "supersample = {}", c.supersample);
     let _ = writeln!(s, "max_fragments = {}", c.max_fragments);
@@ -142,6 +182,9 @@ pub fn text(o: &Outcome) -> String {
     if let (Some(i), Some(t)) = (o.chosen, toml(o)) {
         let c = &o.candidates[i];
         let _ = writeln!(s, "\nsmallest configuration:\n{t}");
+        for line in scored_against(o) {
+            let _ = writeln!(s, "{line}");
+        }
         let _ = writeln!(
             s,
             "needs: {:.0} cycles per frame, {:.3} GB/s of DRAM at {} Hz x {} views, {:.1} frames per second at {} MHz; mean luma PSNR {:.3} dB, SSIM {:.4}",
@@ -170,6 +213,7 @@ pub fn json(o: &Outcome) -> serde_json::Value {
             super::SsSource::Fixed { reason } => json!({"fixed": reason}),
         },
         "config": o.config.as_ref().map(crate::run::hw_config_toml::to_json),
+        "scored_against": scored_against(o),
         "chosen": o.chosen.map(|i| &o.candidates[i]),
         "candidates": o.candidates,
     })

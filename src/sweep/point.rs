@@ -9,6 +9,7 @@
 
 use crate::golden::config::GoldenConfig;
 use crate::methods;
+use crate::report::{MethodReport, SimulateReport};
 use crate::run::hw_config_toml::to_json;
 use crate::run::method::measure_method;
 use crate::run::simulate::measure_hardware;
@@ -170,68 +171,46 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
     ("golden_identical_frames", "frames", "frames whose image equals the golden model's bit for bit (hardware)", true),
 ];
 
-fn num(v: &Value) -> Option<f64> {
-    v.as_f64().filter(|x| x.is_finite())
-}
-
-/// Mean over a method report's frames of reconstruction counter `name`,
-/// if every frame has it.
-fn mean_counter(r: &Value, name: &str) -> Option<f64> {
-    let frames = r["frames"].as_array()?;
-    let v: Option<Vec<f64>> = frames.iter().map(|f| num(&f["reconstruction"][name])).collect();
-    let v = v?;
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-}
-
-/// Sum over a method report's frames of counter `num` over the sum of
-/// counter `den`, if every frame has both and `den` is not 0.
-fn counter_ratio(r: &Value, num_name: &str, den_name: &str) -> Option<f64> {
-    let frames = r["frames"].as_array()?;
-    let sum = |name: &str| frames.iter().map(|f| num(&f["reconstruction"][name])).sum::<Option<f64>>();
-    let (n, d) = (sum(num_name)?, sum(den_name)?);
-    (d > 0.0).then(|| n / d)
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
 impl Metrics {
-    /// From a `postwarp golden --method` report.
-    pub fn from_method_report(r: &Value) -> Metrics {
-        let m = &r["mean"];
+    /// From a `postwarp golden --method` report (its `mean`, and its
+    /// frames' reconstruction counters).
+    pub fn from_method_report(r: &MethodReport) -> Metrics {
+        let m = &r.mean;
         Metrics {
-            frames: r["frames"].as_array().map_or(0, |f| f.len() as u64),
-            psnr_luma_db: num(&m["psnr_luma_db"]),
-            ssim_luma: num(&m["ssim_luma"]),
-            flip_mean: num(&m["flip_mean"]),
-            hole_fraction: num(&m["hole_fraction"]),
-            primitives_per_frame: num(&m["primitives"]),
-            host_ms_per_frame: num(&m["host_ms"]),
-            kernels_over_limit_per_frame: mean_counter(r, "kernels_over_limit"),
-            composite_writes_per_sample: counter_ratio(r, "composite_writes", "composite_filled"),
+            frames: r.frames.len() as u64,
+            psnr_luma_db: m.scores.psnr_luma_db,
+            ssim_luma: m.scores.ssim_luma,
+            flip_mean: m.scores.flip_mean,
+            hole_fraction: m.scores.hole_fraction,
+            primitives_per_frame: finite(m.primitives),
+            host_ms_per_frame: finite(m.host_ms),
+            kernels_over_limit_per_frame: r.mean_reconstruction_counter("kernels_over_limit"),
+            composite_writes_per_sample: r.reconstruction_ratio("composite_writes", "composite_filled"),
             ..Metrics::default()
         }
     }
 
-    /// From a `postwarp simulate` report.
-    pub fn from_hardware_report(r: &Value) -> Metrics {
-        let (m, t) = (&r["mean"], &r["total"]);
-        let q = &m["vs_truth"];
-        let d = &t["dest_cache"];
-        let hit_rate = match (d["hits"].as_u64(), d["accesses"].as_u64()) {
-            (Some(h), Some(a)) if a > 0 => Some(h as f64 / a as f64),
-            _ => None,
-        };
+    /// From a `postwarp simulate` report (its `mean` and `total`).
+    pub fn from_hardware_report(r: &SimulateReport) -> Metrics {
+        let (m, t) = (&r.mean, &r.total);
+        let q = m.vs_truth.as_ref().map(|t| &t.scores);
         Metrics {
-            frames: r["frames"].as_array().map_or(0, |f| f.len() as u64),
-            psnr_luma_db: num(&q["psnr_luma_db"]),
-            ssim_luma: num(&q["ssim_luma"]),
-            flip_mean: num(&q["flip_mean"]),
-            hole_fraction: num(&q["hole_fraction"]),
-            cycles_per_frame: num(&m["cycles"]),
-            dram_read_bytes_per_frame: num(&m["dram_read_bytes"]),
-            dram_write_bytes_per_frame: num(&m["dram_write_bytes"]),
-            dram_gbps_at_target_rate: num(&m["bandwidth_gbps_at_target_rate"]),
-            frame_rate_at_clock_hz: num(&m["frame_rate_at_clock_hz"]),
-            dest_cache_hit_rate: hit_rate,
-            golden_identical_frames: t["identical_frames"].as_u64(),
+            frames: r.frames.len() as u64,
+            psnr_luma_db: q.and_then(|q| q.psnr_luma_db),
+            ssim_luma: q.and_then(|q| q.ssim_luma),
+            flip_mean: q.and_then(|q| q.flip_mean),
+            hole_fraction: q.and_then(|q| q.hole_fraction),
+            cycles_per_frame: finite(m.counters.cycles),
+            dram_read_bytes_per_frame: finite(m.counters.dram_read_bytes),
+            dram_write_bytes_per_frame: finite(m.counters.dram_write_bytes),
+            dram_gbps_at_target_rate: finite(m.rates.dram_gbps_at_target_rate),
+            frame_rate_at_clock_hz: m.rates.frame_rate_at_clock_hz,
+            dest_cache_hit_rate: m.rates.dest_cache_hit_rate,
+            golden_identical_frames: Some(t.identical_frames),
             ..Metrics::default()
         }
     }
@@ -241,10 +220,12 @@ impl Metrics {
         let v = serde_json::to_value(self).expect("metrics serialize");
         match &v[col] {
             Value::Null => String::new(),
-            Value::Number(n) => match n.as_f64() {
-                Some(x) if !n.is_u64() && !n.is_i64() => format!("{x}"),
-                _ => n.to_string(),
-            },
+            // This struct's own field, printed; not a report value read.
+            Value::Number(n) if n.is_u64() || n.is_i64() => n.to_string(),
+            Value::Number(n) => {
+                let x = n.as_f64().unwrap_or(f64::NAN); // own field
+                format!("{x}")
+            }
             other => other.to_string(),
         }
     }
@@ -255,7 +236,11 @@ impl Metrics {
 /// there, as `postwarp golden --method` / `postwarp simulate` would.
 pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow::Result<Metrics> {
     let quiet = indicatif::ProgressBar::hidden();
-    match run {
+    // The image folder is built under a temporary name and replaces an
+    // older one whole (a point is recomputed when another build stored it).
+    let staged = images.map(|d| crate::io_util::OutDir::create(d, true, &[&trace.manifest])).transpose()?;
+    let images = staged.as_ref().map(|s| s.path());
+    let m = match run {
         PointRun::Method { reconstruction, hole_fill, golden, runs } => {
             let mut rec = methods::reconstruction(reconstruction)?;
             if let Some(cfg) = golden {
@@ -265,13 +250,17 @@ pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow
             }
             let fill = methods::hole_fill(hole_fill)?;
             let r = measure_method(trace, rec.as_ref(), fill.as_ref(), *runs, images, &quiet)?;
-            Ok(Metrics::from_method_report(&r.report))
+            Metrics::from_method_report(&r.report)
         }
         PointRun::Hardware { config, .. } => {
             let r = measure_hardware(trace, config, images, &quiet)?;
-            Ok(Metrics::from_hardware_report(&r.report))
+            Metrics::from_hardware_report(&r.report)
         }
+    };
+    if let Some(s) = staged {
+        s.commit()?;
     }
+    Ok(m)
 }
 
 #[cfg(test)]

@@ -60,3 +60,151 @@ pub fn csv_text(spec_name: &str, plan: &Plan, rows: &[Row]) -> String {
     }
     s
 }
+
+/// One row of a `results.csv` read back: its line, its cells, and its
+/// metrics read into [`Metrics`] (the only way charts read results).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResultsRow {
+    /// 1-based line in the file.
+    pub line: usize,
+    /// Every cell, in header order.
+    pub cells: Vec<String>,
+    /// The metric columns present, typed.
+    pub metrics: Metrics,
+}
+
+/// A `results.csv` read back and checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResultsTable {
+    /// The header.
+    pub header: Vec<String>,
+    /// The rows, in file order.
+    pub rows: Vec<ResultsRow>,
+}
+
+/// Columns every `results.csv` has.
+const REQUIRED: &[&str] = &["spec", "trace", "method", "hole_fill"];
+
+impl ResultsTable {
+    /// Position of column `name`.
+    pub fn col(&self, name: &str) -> Option<usize> {
+        self.header.iter().position(|h| h == name)
+    }
+
+    /// Cell `name` of `row` (empty if the column is absent).
+    pub fn cell<'a>(&self, row: &'a ResultsRow, name: &str) -> &'a str {
+        self.col(name).and_then(|c| row.cells.get(c)).map_or("", String::as_str)
+    }
+
+    /// The knob columns: between `runs` and `point` (module doc).
+    pub fn knob_columns(&self) -> std::ops::Range<usize> {
+        match (self.col("runs"), self.col("point")) {
+            (Some(a), Some(b)) if a < b => a + 1..b,
+            _ => 0..0,
+        }
+    }
+}
+
+/// Read the text of a `results.csv`. Errors are `LINE: message`: an
+/// empty file, a missing column, a row with another number of cells than
+/// the header, a metric cell that is neither empty nor a finite number.
+pub fn read_csv(text: &str) -> Result<ResultsTable, String> {
+    let mut all = csv::parse_lines(text)?.into_iter();
+    let Some((_, header)) = all.next().filter(|(_, h)| h.iter().any(|c| !c.is_empty())) else {
+        return Err(format!(
+            "1: empty file; expected the header line of a results.csv written by `postwarp sweep` ({}, …)",
+            REQUIRED.join(",")
+        ));
+    };
+    for r in REQUIRED {
+        if !header.iter().any(|h| h == r) {
+            return Err(format!("1: no `{r}` column; expected a results.csv written by `postwarp sweep`"));
+        }
+    }
+    let metric_cols: Vec<(usize, &str)> =
+        METRIC_COLUMNS.iter().filter_map(|m| header.iter().position(|h| h == m.0).map(|i| (i, m.0))).collect();
+    let mut lines: Vec<(usize, Vec<String>)> = all.collect();
+    while lines.last().is_some_and(|(_, c)| c.len() == 1 && c[0].is_empty()) {
+        lines.pop();
+    }
+    let mut rows = Vec::new();
+    for (line, cells) in lines {
+        if cells.len() == 1 && cells[0].is_empty() {
+            return Err(format!("{line}: blank line; expected a row of {} cells", header.len()));
+        }
+        if cells.len() != header.len() {
+            return Err(format!(
+                "{line}: {} cells; the header has {} (a ragged row: every row has one cell per column)",
+                cells.len(),
+                header.len()
+            ));
+        }
+        let mut m = serde_json::Map::new();
+        m.insert("frames".into(), 0.into());
+        for &(i, name) in &metric_cols {
+            let c = cells[i].trim();
+            if c.is_empty() {
+                continue;
+            }
+            let v = if name == "golden_identical_frames" {
+                c.parse::<u64>().ok().map(serde_json::Value::from)
+            } else {
+                c.parse::<f64>().ok().filter(|x| x.is_finite()).map(serde_json::Value::from)
+            };
+            let Some(v) = v else {
+                return Err(format!(
+                    "{line}: column `{name}` is `{c}`; expected a finite number (or an empty cell where the metric does \
+                     not apply)"
+                ));
+            };
+            m.insert(name.to_string(), v);
+        }
+        let metrics: Metrics = serde_json::from_value(serde_json::Value::Object(m))
+            .map_err(|e| format!("{line}: metric cells do not read as metrics: {e}"))?;
+        rows.push(ResultsRow { line, cells, metrics });
+    }
+    if rows.is_empty() {
+        return Err("2: no rows after the header; expected one row per point".into());
+    }
+    Ok(ResultsTable { header, rows })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = "spec,trace,method,hole_fill,runs,tile,point,psnr_luma_db,golden_identical_frames\n\
+                        s,room,a,x,1,,p,20.5,\n\
+                        s,room,hardware,,,8,q,24,2\n";
+
+    #[test]
+    fn metrics_read_into_the_shared_struct() {
+        let t = read_csv(GOOD).unwrap();
+        assert_eq!(t.rows[0].metrics.psnr_luma_db, Some(20.5));
+        assert_eq!(t.rows[1].metrics.golden_identical_frames, Some(2));
+        assert_eq!(t.rows[1].line, 3);
+        assert_eq!(t.knob_columns(), 5..6);
+        assert_eq!(t.cell(&t.rows[1], "tile"), "8");
+    }
+
+    #[test]
+    fn malformed_files_are_errors_at_their_line() {
+        let cases = [
+            ("", "1: empty file"),
+            ("\n", "1: empty file"),
+            ("spec,trace,method\n", "1: no `hole_fill` column"),
+            ("spec,trace,method,hole_fill,psnr_luma_db\n", "2: no rows"),
+            (&GOOD.replace("20.5,\n", "20.5\n"), "2: 8 cells; the header has 9"),
+            (&GOOD.replace("20.5", "NaN"), "2: column `psnr_luma_db` is `NaN`"),
+            (&GOOD.replace("20.5", "inf"), "2: column `psnr_luma_db` is `inf`"),
+            (&GOOD.replace("20.5", "good"), "2: column `psnr_luma_db` is `good`"),
+            (&GOOD.replace(",24,2", ",24,-2"), "3: column `golden_identical_frames` is `-2`"),
+            (&format!("{GOOD}\ns,room,a,x,1,,p,20.5,\n"), "4: blank line"),
+            (&GOOD.replace("s,room,a", "s,\"room,a"), "2: unterminated quoted field"),
+        ];
+        for (text, want) in cases {
+            let e = read_csv(text).unwrap_err();
+            assert!(e.starts_with(want), "{text:?}: {e}");
+        }
+    }
+}

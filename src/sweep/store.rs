@@ -13,8 +13,19 @@
 
 use super::point::Metrics;
 use anyhow::Context;
-use serde_json::{Value, json};
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The contents of a point file.
+#[derive(Serialize, Deserialize)]
+struct StoredPoint {
+    /// The point's canonical key (rule 1).
+    key: serde_json::Value,
+    /// The build that computed it (rule 3).
+    build: String,
+    /// Its results.
+    metrics: Metrics,
+}
 
 /// The file of the point with hash `hash`.
 pub fn point_file(out: &Path, hash: &str) -> PathBuf {
@@ -64,16 +75,14 @@ pub fn check(out: &Path, hash: &str, key: &str) -> Stored {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Stored::Absent,
         Err(_) => return Stored::Unreadable,
     };
-    let Ok(v) = serde_json::from_slice::<Value>(&text) else { return Stored::Unreadable };
-    let (Some(k), Some(m)) = (v.get("key"), v.get("metrics")) else { return Stored::Unreadable };
-    let Ok(metrics) = serde_json::from_value::<Metrics>(m.clone()) else { return Stored::Unreadable };
-    if serde_json::to_string(k).ok().as_deref() != Some(key) {
+    let Ok(p) = serde_json::from_slice::<StoredPoint>(&text) else { return Stored::Unreadable };
+    if serde_json::to_string(&p.key).ok().as_deref() != Some(key) {
         return Stored::OtherKey;
     }
-    if v.get("build").and_then(Value::as_str) != Some(super::build::build_id()) {
+    if p.build != super::build::build_id() {
         return Stored::OtherBuild;
     }
-    Stored::Finished(Box::new(metrics))
+    Stored::Finished(Box::new(p.metrics))
 }
 
 /// The stored metrics of the point `key`, if it finished earlier.
@@ -83,12 +92,12 @@ pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
 
 /// Store a finished point.
 pub fn save(out: &Path, hash: &str, key: &str, m: &Metrics) -> anyhow::Result<()> {
-    let key: Value = serde_json::from_str(key).context("point key")?;
-    let text =
-        serde_json::to_string_pretty(&json!({"key": key, "build": super::build::build_id(), "metrics": m}))? + "\n";
+    let key = serde_json::from_str(key).context("point key")?;
+    let p = StoredPoint { key, build: super::build::build_id().to_string(), metrics: m.clone() };
+    let text = serde_json::to_string_pretty(&p)? + "\n";
     let path = point_file(out, hash);
-    crate::io_util::write_bytes_atomically(&path, text.as_bytes())
-        .with_context(|| format!("writing {}", path.display()))
+    crate::io_util::write_bytes_atomically(&path, text.as_bytes())?;
+    Ok(())
 }
 
 #[cfg(test)]

@@ -231,26 +231,22 @@ pub fn materialize(v: &TraceVariant, out: &Path) -> anyhow::Result<ReadyTrace> {
             let hash = generated_hash(given, file.as_deref(), spec)?;
             let dir = out.join("traces").join(&hash);
             if needs_render(&dir) {
-                let tmp = out.join("traces").join(format!("{hash}.tmp-{}", std::process::id()));
-                if tmp.exists() {
-                    std::fs::remove_dir_all(&tmp).with_context(|| format!("removing {}", tmp.display()))?;
-                }
+                // Rendered under a temporary name and renamed when complete;
+                // an older, unfinished or other build's folder is replaced
+                // whole, and temporaries of a killed sweep are removed.
+                let staged = crate::io_util::OutDir::create(&dir, true, &[])?;
+                let tmp = staged.path();
                 let scene = match file {
                     None => Scene::builtin(given)?,
                     Some(f) => Scene::from_file(f)?,
                 };
                 let command = format!("postwarp sweep (trace {}, scene {given}, {spec:?})", v.label);
-                crate::tracegen::make_trace_with(&scene, spec, &tmp, &command, false)
+                crate::tracegen::make_trace_with(&scene, spec, tmp, &command, false)
                     .with_context(|| format!("rendering trace {}", v.label))?;
                 let built_by = tmp.join(BUILT_BY);
                 std::fs::write(&built_by, super::build::build_id())
                     .with_context(|| format!("writing {}", built_by.display()))?;
-                if dir.exists() {
-                    // A directory without a manifest is an older, unfinished one.
-                    std::fs::remove_dir_all(&dir).with_context(|| format!("removing {}", dir.display()))?;
-                }
-                std::fs::rename(&tmp, &dir)
-                    .with_context(|| format!("renaming {} to {}", tmp.display(), dir.display()))?;
+                staged.commit()?;
             }
             (dir, format!("traces/{hash}"), None)
         }

@@ -36,10 +36,7 @@ use std::path::Path;
 
 /// The bytes of an image file; a missing file is named as such.
 fn read_image_file(path: &Path) -> Result<Vec<u8>, TraceError> {
-    if !path.is_file() {
-        return Err(TraceError::file(path, "image file does not exist"));
-    }
-    std::fs::read(path).map_err(|e| TraceError::io(path, &e))
+    crate::io_util::read_input(path, "image file").map_err(|e| TraceError::file(path, e.message))
 }
 
 /// Read a reference image of `expected` `(width, height)` samples.

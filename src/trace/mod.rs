@@ -137,7 +137,9 @@ impl Trace {
     /// contents are checked when loaded.
     pub fn open(path: &Path) -> Result<Trace, TraceError> {
         let manifest = if path.is_dir() { path.join(MANIFEST_NAME) } else { path.to_path_buf() };
-        let text = std::fs::read_to_string(&manifest).map_err(|e| TraceError::io(&manifest, &e))?;
+        let text =
+            crate::io_util::read_text(&manifest, "trace manifest (postwarp.trace, or a trace directory holding one)")
+                .map_err(|e| TraceError::file(&manifest, e.message))?;
         let dir = manifest.parent().map(Path::to_path_buf).unwrap_or_default();
         let mut trace = parse_manifest(&text, &manifest)?;
         trace.dir = dir;
@@ -151,13 +153,9 @@ impl Trace {
             self.references.iter().map(|r| &r.image).chain(self.derived.iter().filter_map(|d| d.truth.as_ref()));
         for name in names {
             let full = self.dir.join(name);
-            if !full.is_file() {
+            if let Err(e) = crate::io_util::check_input_file(&full, "image file") {
                 let line = parse::line_mentioning(text, name);
-                return Err(TraceError::at(
-                    &self.manifest,
-                    line,
-                    format!("image file {} does not exist", full.display()),
-                ));
+                return Err(TraceError::at(&self.manifest, line, e.to_string()));
             }
         }
         Ok(())

@@ -9,6 +9,16 @@ use std::collections::BTreeMap;
 /// Parse manifest `text` read from `file` (used in messages). Image paths are
 /// not checked here (see [`Trace::open`]).
 pub fn parse_manifest(text: &str, file: &Path) -> Result<Trace, TraceError> {
+    // An error on the last line of a text cut off mid-line is the cut.
+    let cut = check_complete(text).err().map(|(n, m)| TraceError::at(file, Some(n), m));
+    match (parse_statements(text, file), cut) {
+        (Err(e), Some(c)) if e.line >= c.line => Err(c),
+        (Ok(_), Some(c)) => Err(c),
+        (r, _) => r,
+    }
+}
+
+fn parse_statements(text: &str, file: &Path) -> Result<Trace, TraceError> {
     let err = |line: usize, msg: String| TraceError::at(file, Some(line), msg);
     let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
     match lines.next() {
@@ -91,7 +101,28 @@ pub fn parse_manifest(text: &str, file: &Path) -> Result<Trace, TraceError> {
     Ok(Trace { display, notes, references, derived, dir: PathBuf::new(), manifest: file.to_path_buf() })
 }
 
+/// A manifest is complete only if its last line ends with a line break:
+/// a copy cut off mid-line (the last orientation cut mid-number, the
+/// frames after it gone) is an error at the cut, not a shorter trace.
+fn check_complete(text: &str) -> Result<(), (usize, String)> {
+    if text.is_empty() || text.ends_with('\n') {
+        return Ok(());
+    }
+    Err((
+        text.lines().count().max(1),
+        "the last line has no line break at its end: the file looks cut off (truncated); expected every line, the \
+         last one included, to end with a newline"
+            .into(),
+    ))
+}
+
 fn parse_version(first: &str) -> Result<(), String> {
+    if first.starts_with('\u{feff}') {
+        return Err(format!(
+            "line 1 starts with a UTF-8 byte-order mark (U+FEFF); expected `postwarp-trace {TRACE_VERSION}` as plain \
+             UTF-8 (save the file without a BOM)"
+        ));
+    }
     let Some(v) = first.strip_prefix("postwarp-trace") else {
         return Err(format!("first line is `{first}`; expected the version line `postwarp-trace {TRACE_VERSION}`"));
     };

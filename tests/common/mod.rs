@@ -4,6 +4,7 @@
 //! `golden_general.rs`.
 #![allow(dead_code)]
 
+pub mod fifo;
 pub mod props;
 
 use glam::{DQuat, DVec3};

@@ -209,7 +209,8 @@ impl LineBuffer {
     #[inline(always)]
     pub fn group_row(&self, major: Major, line: i64) -> Option<&[Option<Group>]> {
         let (lines, len) = self.extent(major);
-        (line >= 0 && line + 1 < lines).then(|| {
+        // A line one sample long has no group: its only group leaves the image.
+        (line >= 0 && line + 1 < lines && len >= 2).then(|| {
             let row = &self.groups[(line & 3) as usize];
             debug_assert!(row.line == line && row.major == major);
             &row.data[..len as usize]

@@ -1,0 +1,611 @@
+//! The hardware model's per-frame counters in `report.json`
+//! (`postwarp simulate`), mirroring [`postwarp_rtl::engine::FrameStats`],
+//! and the rates derived from them.
+//!
+//! To add a statistic: add the field to [`HwCounters`] (or to one of its
+//! parts: [`DestCache`], [`SourceCache`], [`UnitCycles`], …), fill it in
+//! [`HwCounters::of`], and give it a row in the part's key table
+//! ([`counter_keys`] and the tables next to it) with its unit, meaning and
+//! reduction. `total` and `mean` follow from the row
+//! ([`super::keys`]); `docs/report.md`'s tables are generated from the rows
+//! and a test compares them, and another fails if a key has no row. A
+//! ratio of counters goes in [`HwRates`] (derived at report time), never
+//! in the counters.
+//!
+//! `N` is `u64` in a frame and in `total`, `f64` in `mean`.
+
+use super::keys::{KeyDoc, Reduce, Shape, nested, scalar};
+use postwarp_rtl::config::EngineConfig;
+use postwarp_rtl::engine::{FrameStats, UNITS};
+use postwarp_rtl::mem::Client;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Bytes one client read and wrote.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReadWrite<N> {
+    /// Bytes read (bytes, rounded up to whole bursts).
+    pub read: N,
+    /// Bytes written (bytes, rounded up to whole bursts).
+    pub write: N,
+}
+
+/// One value per DRAM client, in [`Client::ALL`] order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ByClient<T> {
+    /// Reference blocks read by the fetch unit.
+    pub reference_fetch: T,
+    /// Destination tiles read into the cache.
+    pub tile_fill: T,
+    /// Destination tiles written from the cache.
+    pub tile_write_back: T,
+    /// The display's read of the finished frame.
+    pub output: T,
+}
+
+impl<T> ByClient<T> {
+    /// From a function of each client.
+    pub fn from_fn(f: impl Fn(Client) -> T) -> ByClient<T> {
+        ByClient {
+            reference_fetch: f(Client::ReferenceFetch),
+            tile_fill: f(Client::TileFill),
+            tile_write_back: f(Client::TileWriteBack),
+            output: f(Client::Output),
+        }
+    }
+
+    /// The four values with their client names, in [`Client::ALL`] order.
+    pub fn iter(&self) -> [(&'static str, &T); 4] {
+        [
+            (Client::ReferenceFetch.name(), &self.reference_fetch),
+            (Client::TileFill.name(), &self.tile_fill),
+            (Client::TileWriteBack.name(), &self.tile_write_back),
+            (Client::Output.name(), &self.output),
+        ]
+    }
+}
+
+/// Destination tile cache counters.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DestCache<N> {
+    /// Tile look-ups (accesses).
+    pub accesses: N,
+    /// Look-ups that found the tile resident (accesses).
+    pub hits: N,
+    /// First use of a tile in a warp (accesses).
+    pub misses_compulsory: N,
+    /// Use of a tile spilled earlier in the warp (accesses).
+    pub misses_capacity: N,
+    /// Tiles spilled raw to make room (tiles).
+    pub spills: N,
+}
+
+/// Source (reference) cache counters.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SourceCache<N> {
+    /// Reference blocks read (blocks).
+    pub block_reads: N,
+    /// Blocks evicted (blocks).
+    pub evictions: N,
+    /// Cycles the fetch unit waited for a block (cycles).
+    pub wait_cycles: N,
+}
+
+/// Composite verdicts per covered derived sample.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Composite<N> {
+    /// Candidate written over an empty or hole-fill sample (samples).
+    pub filled: N,
+    /// Candidate won the depth test (samples).
+    pub nearer: N,
+    /// Candidate won the same-surface arbitration (samples).
+    pub better: N,
+    /// Candidate lost (samples).
+    pub lost: N,
+}
+
+/// One unit's cycles.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct UnitCycles<N> {
+    /// Cycles the unit moved work (cycles).
+    pub busy: N,
+    /// Cycles it had work but waited (cycles).
+    pub stall: N,
+    /// Cycles it had nothing to do (cycles).
+    pub idle: N,
+}
+
+/// One value per hardware unit, in [`UNITS`] order.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Units<T> {
+    /// Reference fetch and expand.
+    pub fetch: T,
+    /// Transform pipeline.
+    pub transform: T,
+    /// Kernel setup.
+    pub kernel_setup: T,
+    /// Rasterizer.
+    pub raster: T,
+    /// Compositor.
+    pub composite: T,
+    /// Hole-fill unit.
+    pub hole_fill: T,
+    /// A-buffer packer.
+    pub abuffer: T,
+}
+
+/// Every counter of one frame (`N` = `u64`), or their `total` (`u64`) or
+/// `mean` (`f64`) over frames.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HwCounters<N> {
+    /// Engine cycles for the frame (cycles).
+    pub cycles: N,
+    /// DRAM bytes read, all clients (bytes).
+    pub dram_read_bytes: N,
+    /// DRAM bytes written, all clients (bytes).
+    pub dram_write_bytes: N,
+    /// Per client, bytes read and written (bytes).
+    pub dram_bytes_by_client: ByClient<ReadWrite<N>>,
+    /// DRAM requests accepted (requests).
+    pub dram_requests: N,
+    /// Destination tile cache.
+    pub dest_cache: DestCache<N>,
+    /// Source cache.
+    pub source_cache: SourceCache<N>,
+    /// Destination tiles brought into the cache, per reference warp (tiles).
+    pub tile_loads: Vec<N>,
+    /// Destination tiles released and written back, per reference warp (tiles).
+    pub tile_evictions: Vec<N>,
+    /// Rectangles by drawn size `"WxH"` (rectangles).
+    pub rects_by_size: BTreeMap<String, N>,
+    /// Rectangles rasterized (rectangles).
+    pub rects: N,
+    /// Kernels set up (kernels).
+    pub kernels: N,
+    /// Kernels wider or taller than `kernel_limit` (kernels).
+    pub kernels_over_limit: N,
+    /// Reference samples streamed to the transform unit (samples).
+    pub samples_transformed: N,
+    /// Reference samples behind the derived camera (samples).
+    pub culled_samples: N,
+    /// Reference lines that may reach the derived image (lines).
+    pub live_lines: N,
+    /// Reference lines skipped as off-screen (lines).
+    pub dead_lines: N,
+    /// Composite verdicts (samples).
+    pub composite: Composite<N>,
+    /// Derived pixels by A-buffer fragments needed (pixels; index = fragments).
+    pub fragments_per_pixel: Vec<N>,
+    /// A-buffer merges forced by `max_fragments` (merges).
+    pub forced_merges: N,
+    /// Derived samples holding hole fill at the end (samples).
+    pub hole_samples: N,
+    /// Derived samples with neither surface nor fill (samples).
+    pub empty_samples: N,
+    /// Hole samples filled, summed over passes (samples).
+    pub hole_fill_filled: N,
+    /// Hole samples no tap reached, summed over passes (samples).
+    pub hole_fill_unreached: N,
+    /// Per unit, busy, stall and idle cycles (cycles).
+    pub units: Units<UnitCycles<N>>,
+}
+
+impl HwCounters<u64> {
+    /// The counters of one frame of the engine.
+    pub fn of(s: &FrameStats) -> HwCounters<u64> {
+        let u = |name: &str| {
+            let i = UNITS.iter().position(|n| *n == name).expect("a unit of engine::UNITS");
+            UnitCycles { busy: s.units[i].busy, stall: s.units[i].stall, idle: s.units[i].idle }
+        };
+        let d = &s.dest_cache;
+        let mut rects_by_size = BTreeMap::new();
+        for (w, row) in s.rects.iter().enumerate() {
+            for (h, &n) in row.iter().enumerate() {
+                if n > 0 {
+                    rects_by_size.insert(format!("{w}x{h}"), n);
+                }
+            }
+        }
+        HwCounters {
+            cycles: s.cycles,
+            dram_read_bytes: s.dram.bytes_read,
+            dram_write_bytes: s.dram.bytes_written,
+            dram_bytes_by_client: ByClient::from_fn(|c| ReadWrite {
+                read: s.dram.client_bytes_read[c.index()],
+                write: s.dram.client_bytes_written[c.index()],
+            }),
+            dram_requests: s.dram.requests,
+            dest_cache: DestCache {
+                accesses: d.accesses,
+                hits: d.hits,
+                misses_compulsory: d.misses_compulsory,
+                misses_capacity: d.misses_capacity,
+                spills: d.spills,
+            },
+            source_cache: SourceCache {
+                block_reads: s.source_cache.block_reads,
+                evictions: s.source_cache.evictions,
+                wait_cycles: s.source_cache.wait_cycles,
+            },
+            tile_loads: s.tile_loads.clone(),
+            tile_evictions: s.tile_evictions.clone(),
+            rects: rects_by_size.values().sum(),
+            rects_by_size,
+            kernels: s.kernels,
+            kernels_over_limit: s.kernels_over_limit,
+            samples_transformed: s.samples_transformed,
+            culled_samples: s.culled_samples,
+            live_lines: s.live_lines,
+            dead_lines: s.dead_lines,
+            composite: Composite {
+                filled: s.composite[0],
+                nearer: s.composite[1],
+                better: s.composite[2],
+                lost: s.composite[3],
+            },
+            fragments_per_pixel: s.fragments_per_pixel.clone(),
+            forced_merges: s.forced_merges,
+            hole_samples: s.hole_samples,
+            empty_samples: s.empty_samples,
+            hole_fill_filled: s.hole_fill_filled,
+            hole_fill_unreached: s.hole_fill_unreached,
+            units: Units {
+                fetch: u("fetch"),
+                transform: u("transform"),
+                kernel_setup: u("kernel_setup"),
+                raster: u("raster"),
+                composite: u("composite"),
+                hole_fill: u("hole_fill"),
+                abuffer: u("abuffer"),
+            },
+        }
+    }
+
+    /// The same counters as `f64` (for rates).
+    pub fn as_f64(&self) -> HwCounters<f64> {
+        serde_json::from_value(serde_json::to_value(self).expect("counters serialize")).expect("u64 reads as f64")
+    }
+}
+
+/// Ratios and rates of a frame's counters (or of the mean counters),
+/// derived at report time (module doc).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct HwRates {
+    /// Frames per second one warper sustains at the clock, every view (Hz).
+    pub frame_rate_at_clock_hz: Option<f64>,
+    /// DRAM bandwidth at the target frame rate, every view (GB/s).
+    pub dram_gbps_at_target_rate: f64,
+    /// The same per client, read + write (GB/s).
+    pub dram_gbps_by_client: ByClient<f64>,
+    /// DRAM bytes moved over the bytes the channel could move in the
+    /// frame's cycles (fraction).
+    pub dram_utilisation: Option<f64>,
+    /// Destination-cache hits over accesses (fraction).
+    pub dest_cache_hit_rate: Option<f64>,
+}
+
+fn ratio(a: f64, b: f64) -> Option<f64> {
+    (b > 0.0 && (a / b).is_finite()).then(|| a / b)
+}
+
+impl HwRates {
+    /// The rates of counters `c` (one frame's, or the mean) under `cfg`.
+    pub fn of(c: &HwCounters<f64>, cfg: &EngineConfig) -> HwRates {
+        let views = cfg.views as f64;
+        let gbps = |bytes: f64| bytes * views * cfg.target_frame_rate_hz / 1e9;
+        let bytes = c.dram_read_bytes + c.dram_write_bytes;
+        HwRates {
+            frame_rate_at_clock_hz: ratio(cfg.clock_hz as f64, c.cycles * views),
+            dram_gbps_at_target_rate: gbps(bytes),
+            dram_gbps_by_client: ByClient {
+                reference_fetch: gbps(
+                    c.dram_bytes_by_client.reference_fetch.read + c.dram_bytes_by_client.reference_fetch.write,
+                ),
+                tile_fill: gbps(c.dram_bytes_by_client.tile_fill.read + c.dram_bytes_by_client.tile_fill.write),
+                tile_write_back: gbps(
+                    c.dram_bytes_by_client.tile_write_back.read + c.dram_bytes_by_client.tile_write_back.write,
+                ),
+                output: gbps(c.dram_bytes_by_client.output.read + c.dram_bytes_by_client.output.write),
+            },
+            dram_utilisation: ratio(bytes, c.cycles * cfg.dram_peak_bytes_per_cycle as f64),
+            dest_cache_hit_rate: ratio(c.dest_cache.hits, c.dest_cache.accesses),
+        }
+    }
+}
+
+fn read_write_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar("read", "bytes", Reduce::Sum, "bytes the client read, rounded up to whole bursts"),
+        scalar("write", "bytes", Reduce::Sum, "bytes the client wrote, rounded up to whole bursts"),
+    ]
+}
+
+fn by_client_bytes_keys() -> Vec<KeyDoc> {
+    vec![
+        nested(
+            "reference_fetch",
+            Reduce::Sum,
+            read_write_keys,
+            "reference blocks read in A-buffer format by the fetch unit",
+        ),
+        nested(
+            "tile_fill",
+            Reduce::Sum,
+            read_write_keys,
+            "destination tiles read into the cache: compulsory loads (packed) and capacity reloads (raw)",
+        ),
+        nested(
+            "tile_write_back",
+            Reduce::Sum,
+            read_write_keys,
+            "destination tiles written from the cache: releases (packed) and spills (raw)",
+        ),
+        nested("output", Reduce::Sum, read_write_keys, "the display's read of the finished frame (packed)"),
+    ]
+}
+
+fn dest_cache_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "accesses",
+            "accesses",
+            Reduce::Sum,
+            "tile look-ups by the compositor (once per stamp and tile) and the hole fill (entering a tile, tap tiles); \
+             retries after a wait and the packer's look-ups are not counted",
+        ),
+        scalar("hits", "accesses", Reduce::Sum, "look-ups that found the tile resident"),
+        scalar("misses_compulsory", "accesses", Reduce::Sum, "first use of a tile in a warp"),
+        scalar("misses_capacity", "accesses", Reduce::Sum, "use of a tile spilled earlier in the same warp"),
+        scalar("spills", "tiles", Reduce::Sum, "tiles spilled raw to make room"),
+    ]
+}
+
+fn source_cache_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar("block_reads", "blocks", Reduce::Sum, "reference blocks read (demand and prefetch), over all warps"),
+        scalar("evictions", "blocks", Reduce::Sum, "blocks evicted to make room"),
+        scalar(
+            "wait_cycles",
+            "cycles",
+            Reduce::Sum,
+            "cycles the fetch unit waited for a block, including the idle cycles the engine skipped while waiting; at \
+             most `units.fetch.stall` + `units.fetch.busy`",
+        ),
+    ]
+}
+
+fn composite_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar("filled", "samples", Reduce::Sum, "candidate written over an empty or hole-fill sample"),
+        scalar("nearer", "samples", Reduce::Sum, "candidate won the depth test"),
+        scalar("better", "samples", Reduce::Sum, "candidate won the same-surface arbitration"),
+        scalar("lost", "samples", Reduce::Sum, "candidate lost"),
+    ]
+}
+
+fn unit_cycle_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar("busy", "cycles", Reduce::Sum, "cycles the unit moved work"),
+        scalar(
+            "stall",
+            "cycles",
+            Reduce::Sum,
+            "cycles it had work but waited (memory, a full FIFO, an upstream dependency)",
+        ),
+        scalar("idle", "cycles", Reduce::Sum, "cycles it had nothing to do"),
+    ]
+}
+
+fn units_keys() -> Vec<KeyDoc> {
+    vec![
+        nested("fetch", Reduce::Sum, unit_cycle_keys, "reference fetch and expand"),
+        nested(
+            "transform",
+            Reduce::Sum,
+            unit_cycle_keys,
+            "transform pipeline (busy when fetch pushes; stalls when the pipeline is full)",
+        ),
+        nested(
+            "kernel_setup",
+            Reduce::Sum,
+            unit_cycle_keys,
+            "kernel setup (busy when it absorbs transformed samples or emits kernels)",
+        ),
+        nested("raster", Reduce::Sum, unit_cycle_keys, "rasterizer"),
+        nested("composite", Reduce::Sum, unit_cycle_keys, "compositor"),
+        nested(
+            "hole_fill",
+            Reduce::Sum,
+            unit_cycle_keys,
+            "hole-fill unit (stalls while waiting for retired or resident tiles)",
+        ),
+        nested("abuffer", Reduce::Sum, unit_cycle_keys, "A-buffer packer (busy while packing a released tile)"),
+    ]
+}
+
+const fn list(key: &'static str, unit: &'static str, meaning: &'static str) -> KeyDoc {
+    KeyDoc { key, unit, reduce: Reduce::Sum, shape: Shape::List, meaning }
+}
+
+/// The rows of [`HwCounters`], in field order.
+pub fn counter_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "cycles",
+            "cycles",
+            Reduce::Sum,
+            "engine cycles for the frame, from cycle 0 until the last display read completes (all warps, write-backs \
+             and the display read)",
+        ),
+        scalar("dram_read_bytes", "bytes", Reduce::Sum, "DRAM bytes read, all clients, rounded up to whole bursts"),
+        scalar("dram_write_bytes", "bytes", Reduce::Sum, "DRAM bytes written, all clients, rounded up to whole bursts"),
+        nested("dram_bytes_by_client", Reduce::Sum, by_client_bytes_keys, "per DRAM client, `{read, write}` bytes"),
+        scalar("dram_requests", "requests", Reduce::Sum, "DRAM requests accepted"),
+        nested("dest_cache", Reduce::Sum, dest_cache_keys, "destination tile cache counters"),
+        nested("source_cache", Reduce::Sum, source_cache_keys, "source (reference) cache counters"),
+        list(
+            "tile_loads",
+            "tiles",
+            "per reference warp, in warp order: destination tiles brought into the cache, every compulsory miss plus \
+             every reload of a spilled tile, including reloads by the A-buffer packer's and the hole-fill cursor's \
+             look-ups (so with spills it can exceed `misses_compulsory + misses_capacity`); first-warp tiles are \
+             cleared on chip and counted too",
+        ),
+        list(
+            "tile_evictions",
+            "tiles",
+            "per reference warp: destination tiles released, packed to A-buffer format and written back (raw spills \
+             not included)",
+        ),
+        KeyDoc {
+            key: "rects_by_size",
+            unit: "rectangles",
+            reduce: Reduce::Sum,
+            shape: Shape::Map,
+            meaning: "rasterized rectangles by drawn size, key `\"WxH\"` (columns x rows of sample centres after \
+                      clipping to the stamp and the image; 8 = 8 or more); sizes that did not occur are absent",
+        },
+        scalar("rects", "rectangles", Reduce::Sum, "rectangles rasterized (sum of `rects_by_size`)"),
+        scalar("kernels", "kernels", Reduce::Sum, "kernels set up"),
+        scalar(
+            "kernels_over_limit",
+            "kernels",
+            Reduce::Sum,
+            "kernels wider or taller than `kernel_limit`, clipped to the stamp; counted before clipping to the image \
+             (report version 1: `kernels_over_4x4`)",
+        ),
+        scalar(
+            "samples_transformed",
+            "samples",
+            Reduce::Sum,
+            "reference samples streamed to the transform unit, over all warps (border and neighbour-line samples \
+             fetched by two sheets count twice)",
+        ),
+        scalar("culled_samples", "samples", Reduce::Sum, "reference samples on live lines behind the derived camera"),
+        scalar(
+            "live_lines",
+            "lines",
+            Reduce::Sum,
+            "reference lines that may reach the derived image, summed over warps",
+        ),
+        scalar("dead_lines", "lines", Reduce::Sum, "reference lines skipped as off-screen, summed over warps"),
+        nested("composite", Reduce::Sum, composite_keys, "composite verdicts, one per covered derived sample"),
+        list(
+            "fragments_per_pixel",
+            "pixels",
+            "histogram: derived pixels by A-buffer fragments needed before merging (index = count), over every tile \
+             write-back of the frame",
+        ),
+        scalar(
+            "forced_merges",
+            "merges",
+            Reduce::Sum,
+            "A-buffer merges forced by `max_fragments` in derived write-backs",
+        ),
+        scalar("hole_samples", "samples", Reduce::Sum, "derived samples holding hole fill at the end"),
+        scalar(
+            "empty_samples",
+            "samples",
+            Reduce::Sum,
+            "derived samples with neither a surface nor fill at the end (output black)",
+        ),
+        scalar("hole_fill_filled", "samples", Reduce::Sum, "hole samples filled, summed over hole-fill passes"),
+        scalar("hole_fill_unreached", "samples", Reduce::Sum, "hole samples no tap reached, summed over passes"),
+        nested(
+            "units",
+            Reduce::Sum,
+            units_keys,
+            "per unit (`engine::UNITS`), `{busy, stall, idle}` cycles; the three sum to `cycles`",
+        ),
+    ]
+}
+
+fn by_client_gbps_keys() -> Vec<KeyDoc> {
+    by_client_bytes_keys().into_iter().map(|k| scalar(k.key, "GB/s", Reduce::Derived, k.meaning)).collect()
+}
+
+/// The rows of [`HwRates`], in field order.
+pub fn rate_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "frame_rate_at_clock_hz",
+            "Hz",
+            Reduce::Derived,
+            "`clock_hz / (cycles × views)`: frame rate one warper sustains for every view at the configured clock, for \
+             the trace's frame size (`null` for 0 cycles)",
+        ),
+        scalar(
+            "dram_gbps_at_target_rate",
+            "GB/s",
+            Reduce::Derived,
+            "`(dram_read_bytes + dram_write_bytes) × views × target_frame_rate_hz / 1e9`, for the trace's frame size \
+             (report version 1: `bandwidth_gbps_at_target_rate`; `dram_gbps_at_target_rate` in `results.csv`)",
+        ),
+        nested(
+            "dram_gbps_by_client",
+            Reduce::Derived,
+            by_client_gbps_keys,
+            "per DRAM client, `(read + write) × views × target_frame_rate_hz / 1e9`; they sum to \
+             `dram_gbps_at_target_rate`",
+        ),
+        scalar(
+            "dram_utilisation",
+            "fraction",
+            Reduce::Derived,
+            "`(dram_read_bytes + dram_write_bytes) / (cycles × dram_peak_bytes_per_cycle)`: share of the channel's \
+             peak the frame used over its cycles (`null` for 0 cycles)",
+        ),
+        scalar(
+            "dest_cache_hit_rate",
+            "fraction",
+            Reduce::Derived,
+            "`dest_cache.hits / dest_cache.accesses` (`null` without accesses; report version 1: `dest_cache.hit_rate`)",
+        ),
+    ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::keys::find;
+
+    /// Every field of the structs has its row, in field order, and rows
+    /// describe nothing that is not a field.
+    fn same_keys(v: &serde_json::Value, keys: &[KeyDoc], path: &str) {
+        let m = v.as_object().unwrap();
+        let fields: Vec<&str> = m.keys().map(String::as_str).collect();
+        let rows: Vec<&str> = keys.iter().map(|k| k.key).collect();
+        assert_eq!(fields, rows, "{path}: fields and key rows differ");
+        for k in keys {
+            if let Shape::Struct(sub) = k.shape {
+                same_keys(&m[k.key], &sub(), &format!("{path}.{}", k.key));
+            }
+        }
+    }
+
+    #[test]
+    fn every_field_has_a_row() {
+        let c = HwCounters::of(&FrameStats::default());
+        same_keys(&serde_json::to_value(&c).unwrap(), &counter_keys(), "counters");
+        same_keys(&serde_json::to_value(HwRates::default()).unwrap(), &rate_keys(), "rates");
+        assert!(find(&counter_keys(), "kernels_over_limit").is_some());
+    }
+
+    #[test]
+    fn rates_are_ratios_of_the_counters() {
+        let mut c =
+            HwCounters::<u64> { cycles: 1000, dram_read_bytes: 6000, dram_write_bytes: 2000, ..Default::default() };
+        c.dram_bytes_by_client.tile_fill = ReadWrite { read: 6000, write: 2000 };
+        c.dest_cache.accesses = 4;
+        c.dest_cache.hits = 3;
+        let cfg = EngineConfig::default();
+        let r = HwRates::of(&c.as_f64(), &cfg);
+        assert_eq!(r.frame_rate_at_clock_hz, Some(1e8 / 1000.0));
+        assert_eq!(r.dram_gbps_at_target_rate, 8000.0 * 30.0 / 1e9);
+        assert_eq!(r.dram_gbps_by_client.tile_fill, r.dram_gbps_at_target_rate);
+        assert_eq!(r.dram_utilisation, Some(8000.0 / (1000.0 * 16.0)));
+        assert_eq!(r.dest_cache_hit_rate, Some(0.75));
+        assert_eq!(HwRates::of(&HwCounters::default(), &cfg).frame_rate_at_clock_hz, None);
+    }
+}
