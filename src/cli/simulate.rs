@@ -33,6 +33,17 @@ pub struct Args {
     /// a comment (`-` = standard output). Without a trace, nothing runs.
     #[arg(long, value_name = "FILE")]
     pub dump_config: Option<PathBuf>,
+    /// Also write timeline-NNNN.json per frame: the frame's pipeline in the
+    /// Chrome trace event format (open in ui.perfetto.dev or
+    /// chrome://tracing; docs/units.md, "Timeline").
+    #[arg(long, requires = "out")]
+    pub timeline: bool,
+    /// Timeline resolution (cycles): runs of one state shorter than this
+    /// are merged into `mixed` intervals, counters are sampled per window
+    /// of this many cycles (rounded up to 64).
+    #[arg(long, value_name = "CYCLES", default_value_t = crate::report::timeline::DEFAULT_RESOLUTION,
+          value_parser = clap::value_parser!(u64).range(1..=1 << 32), requires = "timeline")]
+    pub timeline_resolution: u64,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -55,7 +66,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (Some(trace), Some(out)) = (&a.trace, &a.out) else { return Ok(()) };
     let trace = Trace::open(trace)?;
     let staged = crate::io_util::OutDir::create(out, a.force, &[&trace.manifest])?;
-    let r = run_simulate(&trace, &cfg, staged.path())?;
+    let r = run_simulate(&trace, &cfg, staged.path(), a.timeline.then_some(a.timeline_resolution))?;
     let dir = staged.commit()?;
     print!("{}", r.summary);
     let total = &r.report.total;

@@ -113,6 +113,28 @@ pub struct UnitCycles<N> {
     pub stall: N,
     /// Cycles it had nothing to do (cycles).
     pub idle: N,
+    /// The stall cycles by reason; they sum to `stall` (cycles). Absent
+    /// from reports written before the split.
+    #[serde(default = "absent", skip_serializing_if = "Option::is_none")]
+    pub stall_by_reason: Option<StallReasons<N>>,
+}
+
+/// A key absent from an older report.
+fn absent<T>() -> Option<T> {
+    None
+}
+
+/// A unit's stall cycles by reason (`postwarp_rtl::units::StallReason`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StallReasons<N> {
+    /// Waiting for DRAM data (cycles).
+    pub dram: N,
+    /// Waiting for a destination tile (cycles).
+    pub tile: N,
+    /// Output FIFO or queue full (cycles).
+    pub fifo_full: N,
+    /// Waiting on an upstream dependency (cycles).
+    pub upstream: N,
 }
 
 /// One value per hardware unit, in [`UNITS`] order.
@@ -195,7 +217,14 @@ impl HwCounters<u64> {
     pub fn of(s: &FrameStats) -> HwCounters<u64> {
         let u = |name: &str| {
             let i = UNITS.iter().position(|n| *n == name).expect("a unit of engine::UNITS");
-            UnitCycles { busy: s.units[i].busy, stall: s.units[i].stall, idle: s.units[i].idle }
+            let c = &s.units[i];
+            let [dram, tile, fifo_full, upstream] = c.stall_by_reason;
+            UnitCycles {
+                busy: c.busy,
+                stall: c.stall,
+                idle: c.idle,
+                stall_by_reason: Some(StallReasons { dram, tile, fifo_full, upstream }),
+            }
         };
         let d = &s.dest_cache;
         let mut rects_by_size = BTreeMap::new();
@@ -394,6 +423,31 @@ fn unit_cycle_keys() -> Vec<KeyDoc> {
             "cycles it had work but waited (memory, a full FIFO, an upstream dependency)",
         ),
         scalar("idle", "cycles", Reduce::Sum, "cycles it had nothing to do"),
+        nested(
+            "stall_by_reason",
+            Reduce::Sum,
+            stall_reason_keys,
+            "the stall cycles by reason (`docs/units.md`, per-unit accounting); they sum to `stall`",
+        ),
+    ]
+}
+
+fn stall_reason_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar("dram", "cycles", Reduce::Sum, "waiting for DRAM data (a source block still in flight)"),
+        scalar(
+            "tile",
+            "cycles",
+            Reduce::Sum,
+            "waiting for a destination tile (its load in flight, or no cache slot free)",
+        ),
+        scalar("fifo_full", "cycles", Reduce::Sum, "its output FIFO or queue full (back-pressure)"),
+        scalar(
+            "upstream",
+            "cycles",
+            Reduce::Sum,
+            "waiting on an upstream dependency (next line, a tile not yet retired, an item in transit)",
+        ),
     ]
 }
 
@@ -516,7 +570,7 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "units",
             Reduce::Sum,
             units_keys,
-            "per unit (`engine::UNITS`), `{busy, stall, idle}` cycles; the three sum to `cycles`",
+            "per unit (`engine::UNITS`), `{busy, stall, idle}` cycles (the three sum to `cycles`) and `stall_by_reason`",
         ),
     ]
 }

@@ -29,7 +29,7 @@ use postwarp_rtl::units::{Run, StallReason, UnitState};
 use serde_json::{Map, Value, json};
 
 /// Default `--timeline-resolution` (cycles).
-pub const DEFAULT_RESOLUTION: u64 = 1024;
+pub const DEFAULT_RESOLUTION: u64 = 4096;
 
 /// What the file says about where it came from (`otherData`).
 pub struct TimelineMeta<'a> {
@@ -76,7 +76,8 @@ fn colour(i: usize) -> &'static str {
 /// The Chrome trace of one frame (module doc), as JSON bytes.
 pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
     let res = meta.resolution.max(1);
-    let us = |cycle: u64| cycle as f64 * 1e6 / meta.clock_hz as f64;
+    // Microseconds, rounded to the nanosecond (what the viewers resolve).
+    let us = |cycle: u64| (cycle as f64 * 1e9 / meta.clock_hz as f64).round() / 1e3;
     let mut ev: Vec<Value> = Vec::new();
     let name = |pid: u32, tid: Option<u32>, kind: &str, n: &str| {
         let mut e = json!({"name": kind, "ph": "M", "pid": pid, "args": {"name": n}});
@@ -106,7 +107,7 @@ pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
             }
             ev.push(json!({
                 "name": label, "cat": unit, "ph": "X", "pid": 1, "tid": tid,
-                "ts": us(first), "dur": us(end) - us(first), "cname": colour(top), "args": args,
+                "ts": us(first), "dur": us(end - first), "cname": colour(top), "args": args,
             }));
         }
     }
@@ -117,7 +118,7 @@ pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
         let (a, b) = (a.get(), b.get());
         ev.push(json!({
             "name": format!("warp {j}"), "ph": "X", "pid": 1, "tid": warps_tid,
-            "ts": us(a), "dur": us(b) - us(a), "args": {"cycle": a, "cycles": b - a},
+            "ts": us(a), "dur": us(b - a), "args": {"cycle": a, "cycles": b - a},
         }));
     }
     let win = res.div_ceil(OCCUPANCY_WINDOW) * OCCUPANCY_WINDOW;
@@ -130,7 +131,7 @@ pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
                 let r = (w * per).min(o.sum.len())..((w + 1) * per).min(o.sum.len());
                 let sum: u64 = o.sum[r.clone()].iter().sum();
                 let max = o.max[r].iter().copied().max().unwrap_or(0);
-                (sum as f64 / window_len(w, win, t.cycles) as f64, max)
+                (milli(sum as f64 / window_len(w, win, t.cycles) as f64), max)
             })
             .collect();
         let label = format!("{} ({}, capacity {})", o.name, o.unit, o.capacity);
@@ -147,6 +148,12 @@ pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
     let mut bytes = serde_json::to_vec(&doc).expect("a timeline serializes");
     bytes.push(b'\n');
     bytes
+}
+
+/// `v` rounded to three decimals (counter values: the viewers plot them,
+/// more digits only make the file larger).
+fn milli(v: f64) -> f64 {
+    (v * 1e3).round() / 1e3
 }
 
 /// Cycles of window `w` (the last one may be short).
@@ -179,14 +186,14 @@ fn dram_counters(t: &Timeline, win: u64, windows: usize, clock_hz: u64, us: &dyn
     }
     for (c, client) in Client::ALL.iter().enumerate() {
         let series: Vec<f64> =
-            (0..windows).map(|w| flight[c][w] as f64 / window_len(w, win, t.cycles) as f64).collect();
+            (0..windows).map(|w| milli(flight[c][w] as f64 / window_len(w, win, t.cycles) as f64)).collect();
         let label = format!("in flight: {}", client.name());
         counter(ev, 2, &label, win, us, &series, |v| json!({"requests": v}));
     }
     let gbps: Vec<Vec<f64>> = (0..windows)
         .map(|w| {
             let secs = window_len(w, win, t.cycles) as f64 / clock_hz as f64;
-            (0..n).map(|c| bytes[c][w] as f64 / secs / 1e9).collect()
+            (0..n).map(|c| milli(bytes[c][w] as f64 / secs / 1e9)).collect()
         })
         .collect();
     counter(ev, 2, "bandwidth (GB/s)", win, us, &gbps, |v| {

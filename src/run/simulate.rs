@@ -32,6 +32,7 @@ use crate::report::SimulateReport;
 use crate::report::hardware::{HwCounters, HwRates};
 use crate::report::quality::Truth;
 use crate::report::simulate::{HwFrame, VsGolden};
+use crate::report::timeline::{TimelineMeta, chrome_trace};
 use crate::run::hw_config::golden_config_for;
 use crate::trace::Trace;
 use anyhow::Context;
@@ -52,9 +53,16 @@ pub struct SimulateRun {
 
 /// Run `trace` on the hardware model configured by `cfg`, writing the
 /// frames and `report.json` into `out`, with a progress bar on a terminal.
-pub fn run_simulate(trace: &Trace, cfg: &EngineConfig, out: &Path) -> anyhow::Result<SimulateRun> {
+/// With `timeline = Some(resolution)`, also `timeline-NNNN.json` per frame
+/// (`report::timeline`, intervals and counters at that many cycles).
+pub fn run_simulate(
+    trace: &Trace,
+    cfg: &EngineConfig,
+    out: &Path,
+    timeline: Option<u64>,
+) -> anyhow::Result<SimulateRun> {
     let bar = crate::progress::bar(trace.derived.len() as u64, "simulate");
-    let r = measure_hardware(trace, cfg, Some(out), &bar)?;
+    let r = measure(trace, cfg, Some(out), &bar, timeline)?;
     bar.finish_and_clear();
     Ok(r)
 }
@@ -68,11 +76,22 @@ pub fn measure_hardware(
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<SimulateRun> {
+    measure(trace, cfg, out, bar, None)
+}
+
+fn measure(
+    trace: &Trace,
+    cfg: &EngineConfig,
+    out: Option<&Path>,
+    bar: &indicatif::ProgressBar,
+    timeline: Option<u64>,
+) -> anyhow::Result<SimulateRun> {
     let mut cfg = cfg.clone();
     let ss = trace.display.supersample;
     let from_trace = cfg.supersample != ss;
     cfg.supersample = ss;
     let mut engine = Engine::new(cfg.clone()).map_err(|e| anyhow::anyhow!("hardware configuration: {e}"))?;
+    engine.record_timeline(timeline.is_some() && out.is_some());
     let gcfg = golden_config_for(&cfg);
     if let Some(out) = out {
         std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -115,6 +134,13 @@ pub fn measure_hardware(
                 real: &d.real,
             };
             write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes)?;
+            if let (Some(resolution), Some(t)) = (timeline, &hw.timeline) {
+                let manifest = trace.manifest.display().to_string();
+                let meta = TimelineMeta { trace: &manifest, frame: k, clock_hz: cfg.clock_hz, resolution };
+                let path = out.join(format!("timeline-{k:04}.json"));
+                crate::io_util::write_bytes_atomically(&path, &chrome_trace(t, &meta))
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
         }
         let counters = HwCounters::of(&hw.stats);
         frames.push(HwFrame {
