@@ -58,7 +58,8 @@ enum Command {
     /// Run the cross product of traces x methods x hole fills x knobs of a
     /// sweep specification (docs/sweep.md) in parallel, resumably, into
     /// results.csv (every parameter and metric) and quality-against-cost
-    /// charts with their Pareto fronts.
+    /// charts with their Pareto fronts; in this process, or with --slurm as
+    /// a Slurm job array; or one step at a time (plan, run, merge).
     Sweep(sweep::Args),
     /// Find the smallest hardware configuration (super-samples, A-buffer
     /// fragments per pixel, destination cache, tile size) whose output

@@ -9,15 +9,22 @@
 //!   identity;
 //! - [`point::run_point`]: one point on one trace → [`point::Metrics`]
 //!   (the same code as `postwarp golden --method` and `postwarp simulate`);
-//! - [`run_sweep`]: all of it, with the files below;
+//! - the three steps any process can drive (`postwarp sweep plan|run|merge`):
+//!   [`plan_file::prepare`] (plan, render, write `plan.json`) and
+//!   [`plan_file::load`], [`slice::run_slice`] (one slice of the points),
+//!   [`merge::merge`] (`results.csv` and charts from the stored points);
+//! - [`run_sweep`]: the three steps in one process, with the files below;
+//! - [`slurm::run`]: the three steps as a Slurm job array and a merge job;
 //! - [`crate::chart::write_charts`]: the charts of a `results.csv`.
 //!
 //! Rules:
-//! 1. Outputs in `DIR`: `traces/<hash>/` (generated traces),
-//!    `points/<hash>.json` (one per finished point), `results.csv`,
+//! 1. Outputs in `DIR`: `plan.json` (the plan), `traces/<hash>/`
+//!    (generated traces), `points/<hash>.json` (one per finished point),
+//!    `results.csv`,
 //!    `charts/*.svg|png`, and with `images = true` `images/<hash>/` (the
-//!    point's frames and report). Every file is written to a temporary
-//!    name and renamed.
+//!    point's frames and report), and with `--slurm` `slurm/` (the job
+//!    scripts and task logs). Every file is written to a temporary name
+//!    and renamed.
 //! 2. Resumable: a point whose file exists with the same key, stored by
 //!    the same build ([`build::build_id`]), is loaded, not run again
 //!    ([`Outcome::skipped`]); one stored by another build is run again
@@ -29,13 +36,21 @@
 //!    points' loading, scoring, the hardware model) goes on beside it.
 //! 4. A failing point does not stop the others; the sweep then reports
 //!    every failure, writes no `results.csv`, and a rerun resumes.
+//! 5. `results.csv` is a function of the plan and the stored points only, so
+//!    slices run in any order, in any processes, on any nodes, merge into
+//!    the bytes of a one-process sweep (host times aside, which are
+//!    whatever the process that ran each point measured).
 
 pub mod build;
 pub mod hash;
 pub mod knobs;
+pub mod merge;
 pub mod plan;
+pub mod plan_file;
 pub mod point;
 pub mod results;
+pub mod slice;
+pub mod slurm;
 pub mod spec;
 pub mod spec_error;
 pub mod store;
@@ -46,9 +61,7 @@ pub use spec::Spec;
 pub use spec_error::SpecError;
 
 use anyhow::Context;
-use rayon::prelude::*;
 use std::path::{Path, PathBuf};
-use trace_set::ReadyTrace;
 
 /// How to run a sweep.
 #[derive(Clone, Debug)]
@@ -85,130 +98,39 @@ pub struct Outcome {
     pub charts: Vec<PathBuf>,
 }
 
-/// A point with its key, ready to run or load.
-struct Keyed<'a> {
-    trace: &'a ReadyTrace,
-    run: &'a point::PointRun,
-    key: String,
-    hash: String,
-}
-
-/// One line naming a point, for errors.
-fn describe(k: &Keyed) -> String {
-    let mut s = format!("trace {}, method {}", k.trace.variant.label, k.run.method());
-    if !k.run.hole_fill().is_empty() {
-        s += &format!(" + {}", k.run.hole_fill());
-    }
-    format!("{s} (points/{}.json)", k.hash)
-}
-
-/// Run `spec` into `out` (module rules).
+/// Run `spec` into `out` (module rules) in this process: the three steps
+/// of a sweep one after the other, [`plan_file::prepare`] (writes
+/// `plan.json`), [`slice::run_points`] on every point, [`merge::merge`].
 pub fn run_sweep(spec: &Spec, out: &Path, opts: &Options) -> anyhow::Result<Outcome> {
     anyhow::ensure!(opts.jobs >= 1, "--jobs must be at least 1");
-    let plan = plan::plan(spec)?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(opts.jobs).build().context("starting the worker threads")?;
-    let bar = |n: usize, what: &str| {
-        if opts.progress { crate::progress::bar(n as u64, what) } else { indicatif::ProgressBar::hidden() }
-    };
-
-    // Traces: existing ones opened, generated ones rendered unless present.
-    let missing = plan
-        .traces
-        .iter()
-        .filter(|v| match &v.source {
-            trace_set::VariantSource::Generated { given, file, spec: ts } => {
-                trace_set::generated_hash(given, file.as_deref(), ts)
-                    .map(|h| trace_set::needs_render(&out.join("traces").join(h)))
-                    .unwrap_or(true)
-            }
-            trace_set::VariantSource::Existing { .. } => false,
-        })
-        .count();
-    let tbar = bar(missing, "traces");
-    let ready: Vec<ReadyTrace> = pool.install(|| {
-        plan.traces
-            .par_iter()
-            .map(|v| {
-                let r = trace_set::materialize(v, out)
-                    .with_context(|| format!("{}: trace {} ({})", spec.file.display(), v.label, v.at));
-                if matches!(v.source, trace_set::VariantSource::Generated { .. }) {
-                    tbar.inc(1);
-                }
-                r
-            })
-            .collect::<anyhow::Result<Vec<_>>>()
-    })?;
-    tbar.finish_and_clear();
-
-    // Keys, duplicates (same key reached from two plan entries) once.
-    let mut keyed: Vec<Keyed> = Vec::new();
-    for p in &plan.points {
-        let t = &ready[p.trace];
-        let key = p.run.key(&t.identity, t.frames);
-        let hash = hash::hash_str(&key);
-        if !keyed.iter().any(|k| k.hash == hash) {
-            keyed.push(Keyed { trace: t, run: &p.run, key, hash });
-        }
-    }
-
-    let mut metrics: Vec<Option<point::Metrics>> = keyed.iter().map(|k| store::load(out, &k.hash, &k.key)).collect();
-    let skipped = metrics.iter().filter(|m| m.is_some()).count();
-    let stale =
-        keyed.iter().zip(&metrics).filter(|(k, m)| m.is_none() && store::point_file(out, &k.hash).is_file()).count();
-    let todo: Vec<usize> = (0..keyed.len()).filter(|&i| metrics[i].is_none()).collect();
-    let pbar = bar(todo.len(), "sweep");
-    let done: Vec<(usize, anyhow::Result<point::Metrics>)> = pool.install(|| {
-        todo.par_iter()
-            .map(|&i| {
-                let k = &keyed[i];
-                let r = (|| {
-                    let trace = k.trace.open()?;
-                    let images = spec.images.then(|| out.join("images").join(&k.hash));
-                    let m = point::run_point(k.run, &trace, images.as_deref())?;
-                    store::save(out, &k.hash, &k.key, &m)?;
-                    Ok::<_, anyhow::Error>(m)
-                })()
-                .with_context(|| describe(k));
-                pbar.inc(1);
-                (i, r)
-            })
-            .collect()
-    });
-    pbar.finish_and_clear();
-    let computed = done.len();
-    let mut failures = Vec::new();
-    for (i, r) in done {
-        match r {
-            Ok(m) => metrics[i] = Some(m),
-            Err(e) => failures.push(format!("{e:#}")),
-        }
-    }
-    if !failures.is_empty() {
+    let pool = pool(opts.jobs)?;
+    let p = plan_file::prepare(spec, out, &pool, opts.progress)?;
+    let all: Vec<usize> = (0..p.points.len()).collect();
+    let r = slice::run_points(&p, out, &all, &pool, opts.progress);
+    if !r.failures.is_empty() {
         anyhow::bail!(
             "{} of {} points failed (the {} others are stored in {}; run again to resume):\n  {}",
-            failures.len(),
-            keyed.len(),
-            keyed.len() - failures.len(),
+            r.failures.len(),
+            p.points.len(),
+            p.points.len() - r.failures.len(),
             out.join("points").display(),
-            failures.join("\n  ")
+            r.failures.join("\n  ")
         );
     }
+    let m = merge::merge(&p, out, 1, std::time::Duration::ZERO)?;
+    Ok(Outcome {
+        points: p.points.len(),
+        skipped: r.skipped,
+        computed: r.computed,
+        stale: r.stale,
+        traces_generated: p.traces_generated,
+        results: m.results,
+        charts: m.charts,
+    })
+}
 
-    let rows: Vec<results::Row> = keyed
-        .iter()
-        .zip(&metrics)
-        .map(|(k, m)| results::Row {
-            trace: k.trace,
-            run: k.run,
-            hash: &k.hash,
-            metrics: m.as_ref().expect("every point finished"),
-        })
-        .collect();
-    let csv = results::csv_text(&spec.name, &plan, &rows);
-    let results = out.join("results.csv");
-    crate::io_util::write_bytes_atomically(&results, csv.as_bytes())
-        .with_context(|| format!("writing {}", results.display()))?;
-    let charts = crate::chart::write_charts(&csv, &out.join("charts"))?;
-    Ok(Outcome { points: keyed.len(), skipped, computed, stale, traces_generated: missing, results, charts })
+/// A pool of `jobs` worker threads.
+pub fn pool(jobs: usize) -> anyhow::Result<rayon::ThreadPool> {
+    anyhow::ensure!(jobs >= 1, "--jobs must be at least 1");
+    rayon::ThreadPoolBuilder::new().num_threads(jobs).build().context("starting the worker threads")
 }

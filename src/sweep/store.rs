@@ -32,12 +32,62 @@ pub fn point_file(out: &Path, hash: &str) -> PathBuf {
     out.join("points").join(format!("{hash}.json"))
 }
 
+/// What `points/<hash>.json` holds for a point.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Stored {
+    /// The finished point, stored by this build under its key.
+    Finished(Box<Metrics>),
+    /// No file.
+    Absent,
+    /// A file that is not a point file: torn, truncated or edited.
+    Unreadable,
+    /// A point file of another key (a hash collision or an older key format).
+    OtherKey,
+    /// A point file stored by another build of the program.
+    OtherBuild,
+}
+
+impl Stored {
+    /// The metrics, if the point is finished.
+    pub fn metrics(self) -> Option<Metrics> {
+        match self {
+            Stored::Finished(m) => Some(*m),
+            _ => None,
+        }
+    }
+
+    /// Why the point must be run (empty if finished), for messages.
+    pub fn why_missing(&self) -> &'static str {
+        match self {
+            Stored::Finished(_) => "",
+            Stored::Absent => "absent",
+            Stored::Unreadable => "unreadable",
+            Stored::OtherKey => "another key",
+            Stored::OtherBuild => "another build",
+        }
+    }
+}
+
+/// What is stored for the point `key` (module rules 1 and 3).
+pub fn check(out: &Path, hash: &str, key: &str) -> Stored {
+    let text = match std::fs::read(point_file(out, hash)) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Stored::Absent,
+        Err(_) => return Stored::Unreadable,
+    };
+    let Ok(p) = serde_json::from_slice::<StoredPoint>(&text) else { return Stored::Unreadable };
+    if serde_json::to_string(&p.key).ok().as_deref() != Some(key) {
+        return Stored::OtherKey;
+    }
+    if p.build != super::build::build_id() {
+        return Stored::OtherBuild;
+    }
+    Stored::Finished(Box::new(p.metrics))
+}
+
 /// The stored metrics of the point `key`, if it finished earlier.
 pub fn load(out: &Path, hash: &str, key: &str) -> Option<Metrics> {
-    let text = std::fs::read_to_string(point_file(out, hash)).ok()?;
-    let p: StoredPoint = serde_json::from_str(&text).ok()?;
-    let stored_key = serde_json::to_string(&p.key).ok()?;
-    (stored_key == key && p.build == super::build::build_id()).then_some(p.metrics)
+    check(out, hash, key).metrics()
 }
 
 /// Store a finished point.
@@ -70,14 +120,18 @@ mod tests {
         save(dir.path(), "h", key, &m).unwrap();
         assert_eq!(load(dir.path(), "h", key), Some(m));
         assert_eq!(load(dir.path(), "h", r#"{"format":1,"trace":"cd"}"#), None);
+        assert_eq!(check(dir.path(), "h", r#"{"format":1,"trace":"cd"}"#), Stored::OtherKey);
         assert_eq!(load(dir.path(), "nothing", key), None);
+        assert_eq!(check(dir.path(), "nothing", key), Stored::Absent);
         // Another build's file is not used.
         let text = std::fs::read_to_string(point_file(dir.path(), "h")).unwrap();
         let other = text.replace(super::super::build::build_id(), "0123456789abcdef");
         assert_ne!(text, other);
         std::fs::write(point_file(dir.path(), "h"), other).unwrap();
-        assert_eq!(load(dir.path(), "h", key), None);
+        assert_eq!(check(dir.path(), "h", key), Stored::OtherBuild);
         std::fs::write(point_file(dir.path(), "h"), "{ torn").unwrap();
-        assert_eq!(load(dir.path(), "h", key), None);
+        assert_eq!(check(dir.path(), "h", key), Stored::Unreadable);
+        std::fs::write(point_file(dir.path(), "h"), &text[..text.len() / 2]).unwrap();
+        assert_eq!(check(dir.path(), "h", key), Stored::Unreadable);
     }
 }
