@@ -1,5 +1,5 @@
 //! What the Slurm path of `postwarp sweep` costs over the local path, in
-//! one run: `specs/ci-tiny.toml` (32 points) timed end to end (plan, points,
+//! one run: `specs/ci-tiny.toml` (40 points) timed end to end (plan, points,
 //! merge; a fresh output directory each time) locally and through
 //! `--slurm`, alternately, each the median of `REPS` runs:
 //!
