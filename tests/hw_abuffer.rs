@@ -24,13 +24,18 @@ fn trace(name: &str) -> Trace {
     Trace::open(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("traces").join(name)).unwrap()
 }
 
-fn hw_params(ss: u32, max_fragments: u32) -> AbufferParams {
+fn hw_params(ss: u32, abuffer_fragments: u32) -> AbufferParams {
     let cfg = GoldenConfig::default();
-    AbufferParams { ss, max_fragments, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol }
+    AbufferParams { ss, abuffer_fragments, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol }
 }
 
 fn golden_params(p: &AbufferParams) -> golden::AbufferParams {
-    golden::AbufferParams { ss: p.ss, max_fragments: p.max_fragments, slope_tol: p.slope_tol, rel_tol: p.rel_tol }
+    golden::AbufferParams {
+        ss: p.ss,
+        abuffer_fragments: p.abuffer_fragments,
+        slope_tol: p.slope_tol,
+        rel_tol: p.rel_tol,
+    }
 }
 
 /// Sample indices where two reference images differ in any bit of colour,
@@ -49,8 +54,8 @@ fn sample_diffs(a: &SampleImage, b: &SampleImage) -> Vec<usize> {
 }
 
 /// Fragments written for a histogram of fragments needed (after merging).
-fn fragments_after_merging(hist: &[u64], max_fragments: u32) -> u64 {
-    hist.iter().enumerate().map(|(n, &c)| c * (n as u64).min(max_fragments as u64)).sum()
+fn fragments_after_merging(hist: &[u64], abuffer_fragments: u32) -> u64 {
+    hist.iter().enumerate().map(|(n, &c)| c * (n as u64).min(abuffer_fragments as u64)).sum()
 }
 
 /// Samples whose fragment plane reaches 1/Z <= 0 (or a reciprocal that is
@@ -233,10 +238,11 @@ fn check_dest(d: &DestPlanes, p: &AbufferParams, what: &str) {
     golden::round_trip_dest(&mut want, &golden_params(p), &mut gs);
     let (pw, ph) = (d.width / p.ss, d.height / p.ss);
     let pixels = (pw * ph) as u64;
-    let want_bytes = if p.max_fragments == 0 {
+    let want_bytes = if p.abuffer_fragments == 0 {
         pixels * (p.ss * p.ss) as u64 * RAW_SAMPLE_BYTES
     } else {
-        pixels * PIXEL_HEADER_BYTES + fragments_after_merging(&gs.fragments_per_pixel, p.max_fragments) * FRAGMENT_BYTES
+        pixels * PIXEL_HEADER_BYTES
+            + fragments_after_merging(&gs.fragments_per_pixel, p.abuffer_fragments) * FRAGMENT_BYTES
     };
 
     let mut whole = common::dest_frame(d);
@@ -257,7 +263,7 @@ fn check_dest(d: &DestPlanes, p: &AbufferParams, what: &str) {
     assert_eq!(dest_diffs(&tiled, &want), Vec::<usize>::new(), "{what}: tiles");
     assert_eq!(ct, c, "{what}: tiles");
     assert_eq!(tile_bytes, want_bytes, "{what}: tile bytes");
-    if p.max_fragments > 0 {
+    if p.abuffer_fragments > 0 {
         assert_eq!(c.pixels_packed, pixels);
         assert_eq!(c.fragments_written * FRAGMENT_BYTES + pixels * PIXEL_HEADER_BYTES, want_bytes);
     } else {
@@ -367,7 +373,7 @@ fn synthetic_derived_frames_with_forced_merges_match_golden() {
         for (seed, max) in [(1, 3), (2, 2), (3, 1), (4, 4), (5, 16), (6, 0)] {
             // 9x7 pixels: the 4x4 tiles overhang the right and bottom border.
             let d = synthetic(ss, 9, 7, seed * 10 + ss as u64);
-            let p = AbufferParams { ss, max_fragments: max, slope_tol: 2.0, rel_tol: 0.01 };
+            let p = AbufferParams { ss, abuffer_fragments: max, slope_tol: 2.0, rel_tol: 0.01 };
             check_dest(&d, &p, &format!("synthetic ss={ss} N={max} seed {seed}"));
         }
     }

@@ -82,7 +82,7 @@ fn dram_bytes_equal_what_the_packer_and_the_fetch_moved() {
         .fragments_per_pixel
         .iter()
         .enumerate()
-        .map(|(k, &n)| n * (PIXEL_HEADER_BYTES + FRAGMENT_BYTES * k.min(cfg.max_fragments as usize) as u64))
+        .map(|(k, &n)| n * (PIXEL_HEADER_BYTES + FRAGMENT_BYTES * k.min(cfg.abuffer_fragments as usize) as u64))
         .sum();
     assert_eq!(wr[i(Client::TileWriteBack)], packed);
     // Reference reads: each block read once, its packed size.

@@ -33,12 +33,17 @@ use proptest::prelude::*;
 const SLOPE_TOL: f64 = 2.0;
 const REL_TOL: f64 = 0.01;
 
-fn params(ss: u32, max_fragments: u32) -> AbufferParams {
-    AbufferParams { ss, max_fragments, slope_tol: SLOPE_TOL, rel_tol: REL_TOL }
+fn params(ss: u32, abuffer_fragments: u32) -> AbufferParams {
+    AbufferParams { ss, abuffer_fragments, slope_tol: SLOPE_TOL, rel_tol: REL_TOL }
 }
 
 fn golden_params(p: &AbufferParams) -> golden::AbufferParams {
-    golden::AbufferParams { ss: p.ss, max_fragments: p.max_fragments, slope_tol: p.slope_tol, rel_tol: p.rel_tol }
+    golden::AbufferParams {
+        ss: p.ss,
+        abuffer_fragments: p.abuffer_fragments,
+        slope_tol: p.slope_tol,
+        rel_tol: p.rel_tol,
+    }
 }
 
 fn ss() -> impl Strategy<Value = u32> {
@@ -320,7 +325,7 @@ fn reference_frame() -> impl Strategy<Value = (AbufferParams, SampleImage)> {
 proptest! {
     #![proptest_config(common::prop_config(512))]
 
-    /// At most `max_fragments` fragments per pixel, exactly
+    /// At most `abuffer_fragments` fragments per pixel, exactly
     /// `min(needed, max)`; one forced merge per fragment over the limit; the
     /// masks partition the covered samples (disjoint, non-empty, union =
     /// the non-empty samples); fragments sorted by their first sample;
@@ -381,7 +386,7 @@ proptest! {
 
     /// expand(compress(x)) == x bit for bit, in the packer, in the hardware
     /// destination round trip and in the golden one, exactly when the pixel
-    /// holds at most `max_fragments` distinct surfaces (module doc); the
+    /// holds at most `abuffer_fragments` distinct surfaces (module doc); the
     /// fragments are then the surfaces, in order of their first sample,
     /// with no merge. With more surfaces than the limit, merges happen and
     /// the round trip changes the pixel.
@@ -458,7 +463,7 @@ proptest! {
         prop_assert_eq!(dest_diffs(&whole, &want), Vec::<usize>::new());
         prop_assert_eq!(&c.fragments_per_pixel, &gs.fragments_per_pixel);
         prop_assert_eq!(c.forced_merges, gs.forced_merges);
-        if p.max_fragments == 0 {
+        if p.abuffer_fragments == 0 {
             prop_assert_eq!(bytes, (pw * ph * p.ss * p.ss) as u64 * RAW_SAMPLE_BYTES);
             prop_assert_eq!(dest_diffs(&whole, &d), Vec::<usize>::new(), "no A-buffer: nothing changes");
         } else {
@@ -498,7 +503,7 @@ proptest! {
             for px in 0..img.width / ss {
                 let frags = packed.pixel_fragments(px, py);
                 let g = golden::compress_reference_pixel(&img, px, py, &golden_params(&p));
-                if p.max_fragments > 0 {
+                if p.abuffer_fragments > 0 {
                     prop_assert!(golden::masks_partition(&g, golden::valid_mask(&img.valid, img.width, px, py, ss)));
                     prop_assert_eq!(frags.len(), g.len());
                 }

@@ -331,7 +331,7 @@ fn engine_knobs() -> impl Strategy<Value = (EngineConfig, u64)> {
                 dram_latency_cycles: latency,
                 dram_burst_bytes: 1 << burst,
                 dram_max_outstanding: out,
-                max_fragments: frags,
+                abuffer_fragments: frags,
                 ..EngineConfig::default()
             };
             (cfg, extra_tiles)

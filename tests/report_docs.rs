@@ -135,9 +135,16 @@ fn reports_round_trip_and_newer_versions_are_refused() {
     let text = std::fs::read_to_string(out.join("report.json")).unwrap();
     let Report::Simulate(s) = postwarp::report::load(&out).unwrap() else { panic!() };
     assert_eq!(serde_json::to_string_pretty(&s).unwrap() + "\n", text, "read and written again, byte for byte");
-    let newer = text.replacen("\"report_version\": 2", "\"report_version\": 3", 1);
+    let newer = text.replacen("\"report_version\": 3", "\"report_version\": 4", 1);
     let e = postwarp::report::parse(&newer, Path::new("x/report.json")).unwrap_err().to_string();
-    assert!(e.contains("x/report.json: report_version 3 was written by a newer postwarp"), "{e}");
+    assert!(e.contains("x/report.json: report_version 4 was written by a newer postwarp"), "{e}");
+    // Version 2 called the hardware's `abuffer_fragments` `max_fragments`.
+    let v2 = text
+        .replacen("\"report_version\": 3", "\"report_version\": 2", 1)
+        .replace(&format!("\"abuffer_fragments\": {}", s.config["abuffer_fragments"]), "\"max_fragments\": 2");
+    assert!(v2.contains("\"max_fragments\": 2"));
+    let Report::Simulate(old) = postwarp::report::parse(&v2, Path::new("v2.json")).unwrap() else { panic!() };
+    assert_eq!((old.config.get("abuffer_fragments"), old.config.get("max_fragments")), (Some(&2.into()), None));
     let e = postwarp::report::parse("{", Path::new("x/report.json")).unwrap_err().to_string();
     assert!(e.starts_with("x/report.json: not a JSON report"), "{e}");
 }

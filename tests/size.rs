@@ -70,8 +70,8 @@ fn assert_one_step_smaller_fails(out: &Path, floor: f64) -> usize {
     let (last, smaller) = quality.split_last().expect("quality-stage runs");
     assert!(c(last, "psnr_luma_db").parse::<f64>().unwrap() >= floor);
     assert_eq!(
-        (c(last, "supersample"), c(last, "max_fragments")),
-        (c(chosen, "supersample"), c(chosen, "max_fragments"))
+        (c(last, "supersample"), c(last, "abuffer_fragments")),
+        (c(chosen, "supersample"), c(chosen, "abuffer_fragments"))
     );
     for r in smaller {
         assert!(c(r, "psnr_luma_db").parse::<f64>().unwrap() < floor, "{r:?}");
@@ -118,7 +118,7 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no configuration meets the floor") && err.contains("best mean luma PSNR"), "{err}");
     let (head, rows) = table(&first);
-    let (psnr, ss, frags) = (col(&head, "psnr_luma_db"), col(&head, "supersample"), col(&head, "max_fragments"));
+    let (psnr, ss, frags) = (col(&head, "psnr_luma_db"), col(&head, "supersample"), col(&head, "abuffer_fragments"));
     let order: Vec<(u32, u32)> = rows.iter().map(|r| (r[ss].parse().unwrap(), r[frags].parse().unwrap())).collect();
     assert_eq!(order, [(1, 1), (2, 1), (2, 2), (2, 3), (2, 4), (4, 1), (4, 2), (4, 3), (4, 4)]);
     let q: Vec<f64> = rows.iter().map(|r| r[psnr].parse().unwrap()).collect();
@@ -155,8 +155,8 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     assert_eq!(quality_runs, first_best + 1);
     let last = rows.iter().rfind(|r| c(r, "stage") == "quality").unwrap();
     assert_eq!(
-        (c(last, "supersample"), c(last, "max_fragments")),
-        (cfg.supersample.to_string(), cfg.max_fragments.to_string())
+        (c(last, "supersample"), c(last, "abuffer_fragments")),
+        (cfg.supersample.to_string(), cfg.abuffer_fragments.to_string())
     );
     // Every cache-stage run made the same image (same quality, golden-identical).
     for r in rows.iter().filter(|r| c(r, "stage") == "cache") {

@@ -71,7 +71,7 @@ pub struct EngineConfig {
     pub supersample: u32,
     /// A-buffer fragments per pixel in memory (fragments/pixel; 0 = samples
     /// stored raw, no A-buffer).
-    pub max_fragments: u32,
+    pub abuffer_fragments: u32,
     /// Largest kernel side the rasterizer draws (samples).
     pub kernel_limit: u32,
     /// Rectangles the rasterizer accepts per cycle (rectangles/cycle).
@@ -128,11 +128,22 @@ pub struct EngineConfig {
     pub hole_fill_per_cycle: u32,
 }
 
+/// Knobs renamed since they were introduced: (old name, new name). Files
+/// that use the old name still load (the new name wins if both are
+/// given, which is an error); reports and `results.csv` carry the new name
+/// only (`report_version` 3).
+pub const RENAMED_KNOBS: &[(&str, &str)] = &[("max_fragments", "abuffer_fragments")];
+
+/// The current name of knob `name` (itself unless it was renamed).
+pub fn current_knob_name(name: &str) -> &str {
+    RENAMED_KNOBS.iter().find(|(old, _)| *old == name).map_or(name, |(_, new)| new)
+}
+
 /// (name, unit, description) of every knob, in field order, for reports and
 /// docs.
 pub const KNOBS: &[(&str, &str, &str)] = &[
     ("supersample", "samples", "super-samples per pixel along each axis"),
-    ("max_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory (0 = raw samples)"),
+    ("abuffer_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory (0 = raw samples)"),
     ("kernel_limit", "samples", "largest kernel side the rasterizer draws"),
     ("rects_per_cycle", "rectangles/cycle", "rectangles the rasterizer accepts per cycle"),
     ("transform_latency", "cycles", "pipeline depth of the transform unit"),
@@ -173,7 +184,7 @@ impl Default for EngineConfig {
     fn default() -> Self {
         EngineConfig {
             supersample: 2,
-            max_fragments: 3,
+            abuffer_fragments: 3,
             kernel_limit: 4,
             rects_per_cycle: 1,
             transform_latency: 12,
@@ -246,7 +257,7 @@ impl EngineConfig {
         };
         // The A-buffer packs at most 16 samples per pixel (a 16-bit mask).
         range("supersample", self.supersample.into(), 1, 4, "samples")?;
-        range("max_fragments", self.max_fragments.into(), 0, 16, "fragments/pixel")?;
+        range("abuffer_fragments", self.abuffer_fragments.into(), 0, 16, "fragments/pixel")?;
         range("kernel_limit", self.kernel_limit.into(), 1, 64, "samples")?;
         range("rects_per_cycle", self.rects_per_cycle.into(), 1, 256, "rectangles/cycle")?;
         range("transform_latency", self.transform_latency.into(), 1, 1024, "cycles")?;
@@ -306,7 +317,7 @@ mod tests {
     fn defaults_validate_and_match_the_paper() {
         let c = EngineConfig::default();
         assert_eq!(c.validate(), Ok(()));
-        assert_eq!((c.supersample, c.max_fragments, c.kernel_limit, c.tile_size), (2, 3, 4, 8));
+        assert_eq!((c.supersample, c.abuffer_fragments, c.kernel_limit, c.tile_size), (2, 3, 4, 8));
         assert_eq!((c.display_width, c.display_height, c.references_per_frame), (640, 480, 2));
         assert_eq!(c.dest_cache_bytes, 589_824);
     }
@@ -335,7 +346,7 @@ mod tests {
     fn invalid_cases() -> Vec<(&'static str, Breaker)> {
         vec![
             ("supersample", |c| c.supersample = 5),
-            ("max_fragments", |c| c.max_fragments = 17),
+            ("abuffer_fragments", |c| c.abuffer_fragments = 17),
             ("kernel_limit", |c| c.kernel_limit = 0),
             ("rects_per_cycle", |c| c.rects_per_cycle = 0),
             ("transform_latency", |c| c.transform_latency = 0),

@@ -119,7 +119,7 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("hole_samples", "samples", "derived samples holding hole fill at the end"),
     StatDef::counter("empty_samples", "samples", "derived samples with neither surface nor fill at the end"),
     StatDef::counter("fragments_per_pixel.<fragments>", "pixels", "derived pixels by A-buffer fragments needed"),
-    StatDef::counter("forced_merges", "merges", "A-buffer merges forced by max_fragments in write-backs"),
+    StatDef::counter("forced_merges", "merges", "A-buffer merges forced by abuffer_fragments in write-backs"),
     StatDef::counter("units.<unit>.busy", "cycles", "cycles the unit moved work"),
     StatDef::counter("units.<unit>.stall", "cycles", "cycles the unit had work but waited"),
     StatDef::counter("units.<unit>.idle", "cycles", "cycles the unit had nothing to do"),

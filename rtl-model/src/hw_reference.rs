@@ -111,7 +111,7 @@ impl HwReference {
 pub fn abuffer_params(cfg: &EngineConfig) -> AbufferParams {
     AbufferParams {
         ss: cfg.supersample,
-        max_fragments: cfg.max_fragments,
+        abuffer_fragments: cfg.abuffer_fragments,
         slope_tol: cfg.slope_tol,
         rel_tol: cfg.rel_tol,
     }

@@ -97,12 +97,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     if r.chosen.is_none() {
         let best = r.best_quality();
         bail!(
-            "no configuration meets the floor ({}): the best mean luma PSNR reached is {:.3} dB (SSIM {:.4}) with supersample = {}, max_fragments = {}",
+            "no configuration meets the floor ({}): the best mean luma PSNR reached is {:.3} dB (SSIM {:.4}) with supersample = {}, abuffer_fragments = {}",
             r.floor.describe(),
             best.and_then(|b| b.psnr_luma_db).unwrap_or(f64::NAN),
             best.and_then(|b| b.ssim_luma).unwrap_or(f64::NAN),
             best.map_or(0, |b| b.supersample),
-            best.map_or(0, |b| b.max_fragments)
+            best.map_or(0, |b| b.abuffer_fragments)
         );
     }
     Ok(())

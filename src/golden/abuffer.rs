@@ -112,7 +112,7 @@ pub struct AbufferParams {
     /// Super-samples per pixel per axis.
     pub ss: u32,
     /// Fragment limit per pixel.
-    pub max_fragments: u32,
+    pub abuffer_fragments: u32,
     /// Z tolerance slope term.
     pub slope_tol: f64,
     /// Z tolerance relative term.
@@ -191,7 +191,7 @@ fn compress_pixel(samples: &[Option<SampleView>], p: &AbufferParams, stats: &mut
         e.3 += 1;
     }
     stats.record(n);
-    while n > p.max_fragments as usize && n > 1 {
+    while n > p.abuffer_fragments as usize && n > 1 {
         let mut best = (u8::MAX, u8::MAX, f64::INFINITY, 0usize, 0usize);
         for i in 0..n {
             for j in i + 1..n {
@@ -248,10 +248,10 @@ fn for_each_pixel(width: u32, height: u32, ss: u32, mut f: impl FnMut(u32, u32, 
 pub const FAR_Z: f32 = f32::MAX;
 
 /// Compress a reference frame's samples to fragments and expand them back
-/// (the round trip through memory). With `max_fragments == 0` the samples
+/// (the round trip through memory). With `abuffer_fragments == 0` the samples
 /// pass unchanged.
 pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut AbufferStats) -> SampleImage {
-    if p.max_fragments == 0 {
+    if p.abuffer_fragments == 0 {
         return img.clone();
     }
     let mut out = SampleImage::empty(img.width, img.height);
@@ -290,7 +290,7 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
 /// Compress the derived frame's memory planes to fragments and expand them
 /// back. Cache-only planes are untouched (they are reset per warp).
 pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats) {
-    if p.max_fragments == 0 {
+    if p.abuffer_fragments == 0 {
         return;
     }
     // One copy per common super-sampling factor, where the sample offsets
@@ -462,7 +462,7 @@ mod tests {
     use super::*;
 
     fn params(n: u32) -> AbufferParams {
-        AbufferParams { ss: 2, max_fragments: n, slope_tol: 2.0, rel_tol: 0.01 }
+        AbufferParams { ss: 2, abuffer_fragments: n, slope_tol: 2.0, rel_tol: 0.01 }
     }
 
     /// A 1x1-pixel reference whose 4 samples hold `surfaces` flat planar

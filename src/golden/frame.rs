@@ -137,7 +137,7 @@ pub struct PreparedReference {
 }
 
 fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
-    AbufferParams { ss, max_fragments: cfg.abuffer_fragments, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol }
+    AbufferParams { ss, abuffer_fragments: cfg.abuffer_fragments, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol }
 }
 
 /// Rule 1.

@@ -198,7 +198,7 @@ pub struct HwCounters<N> {
     pub composite: Composite<N>,
     /// Derived pixels by A-buffer fragments needed (pixels; index = fragments).
     pub fragments_per_pixel: Vec<N>,
-    /// A-buffer merges forced by `max_fragments` (merges).
+    /// A-buffer merges forced by `abuffer_fragments` (merges).
     pub forced_merges: N,
     /// Derived samples holding hole fill at the end (samples).
     pub hole_samples: N,
@@ -555,7 +555,7 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "forced_merges",
             "merges",
             Reduce::Sum,
-            "A-buffer merges forced by `max_fragments` in derived write-backs",
+            "A-buffer merges forced by `abuffer_fragments` in derived write-backs",
         ),
         scalar("hole_samples", "samples", Reduce::Sum, "derived samples holding hole fill at the end"),
         scalar(

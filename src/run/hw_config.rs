@@ -16,7 +16,7 @@ pub fn golden_config_for(hw: &EngineConfig) -> GoldenConfig {
         slope_tol: hw.slope_tol,
         rel_tol: hw.rel_tol,
         better_margin: hw.better_margin,
-        abuffer_fragments: hw.max_fragments,
+        abuffer_fragments: hw.abuffer_fragments,
         hole_fill: true,
         hole_far_distance: hw.hole_far_distance,
         hole_far_offset: hw.hole_far_offset,

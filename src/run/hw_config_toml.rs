@@ -6,7 +6,7 @@
 //! `preset = "NAME"` in the file picks the base (default `mark1998`).
 
 use anyhow::{anyhow, bail};
-use postwarp_rtl::config::{EngineConfig, KNOBS};
+use postwarp_rtl::config::{EngineConfig, KNOBS, current_knob_name};
 use std::path::Path;
 
 /// Set knob `key` of `c` from a TOML value; the error says what was
@@ -17,7 +17,7 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
     let real = || v.as_float().or_else(|| v.as_integer().map(|n| n as f64)).ok_or("expected a number");
     match key {
         "supersample" => c.supersample = u32v()?,
-        "max_fragments" => c.max_fragments = u32v()?,
+        "abuffer_fragments" => c.abuffer_fragments = u32v()?,
         "kernel_limit" => c.kernel_limit = u32v()?,
         "rects_per_cycle" => c.rects_per_cycle = u32v()?,
         "transform_latency" => c.transform_latency = u32v()?,
@@ -79,9 +79,14 @@ pub fn parse(text: &str) -> anyhow::Result<EngineConfig> {
     };
     let mut c = EngineConfig::preset(base).map_err(|e| anyhow!("preset: {e}"))?;
     for (k, v) in &table {
-        if k != "preset" {
-            set(&mut c, k, v).map_err(|e| anyhow!("{k}: {e}"))?;
+        if k == "preset" {
+            continue;
         }
+        let name = current_knob_name(k);
+        if name != k && table.contains_key(name) {
+            bail!("{k}: is the old name of `{name}`, which the file also sets; keep `{name}` only");
+        }
+        set(&mut c, name, v).map_err(|e| anyhow!("{k}: {e}"))?;
     }
     Ok(c)
 }
@@ -92,7 +97,7 @@ pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
     let i = |n: u64| V::Integer(i64::try_from(n).unwrap_or(i64::MAX));
     Some(match key {
         "supersample" => i(c.supersample.into()),
-        "max_fragments" => i(c.max_fragments.into()),
+        "abuffer_fragments" => i(c.abuffer_fragments.into()),
         "kernel_limit" => i(c.kernel_limit.into()),
         "rects_per_cycle" => i(c.rects_per_cycle.into()),
         "transform_latency" => i(c.transform_latency.into()),
@@ -155,7 +160,7 @@ pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::
             serde_json::Value::Number(n) => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
             other => bail!("{k}: {other} is not a number"),
         };
-        set(&mut c, k, &t).map_err(|e| anyhow!("{k}: {e}"))?;
+        set(&mut c, current_knob_name(k), &t).map_err(|e| anyhow!("{k}: {e}"))?;
     }
     Ok(c)
 }
@@ -189,6 +194,15 @@ mod tests {
         assert!(e.starts_with("tile_size: expected a non-negative"), "{e}");
         let e = parse("preset = \"nope\"").unwrap_err().to_string();
         assert!(e.contains("mark1998"), "{e}");
+    }
+
+    #[test]
+    fn a_renamed_knob_loads_under_its_old_name_but_not_under_both() {
+        assert_eq!(parse("max_fragments = 2").unwrap().abuffer_fragments, 2);
+        assert_eq!(parse("abuffer_fragments = 1").unwrap().abuffer_fragments, 1);
+        let e = parse("max_fragments = 2\nabuffer_fragments = 1").unwrap_err().to_string();
+        assert!(e.contains("old name of `abuffer_fragments`"), "{e}");
+        assert!(to_json_map(&EngineConfig::default()).keys().all(|k| k != "max_fragments"));
     }
 
     #[test]

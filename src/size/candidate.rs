@@ -26,7 +26,7 @@ pub struct Candidate {
     /// Super-samples per pixel along each axis (samples).
     pub supersample: u32,
     /// A-buffer fragments per pixel in memory (fragments/pixel).
-    pub max_fragments: u32,
+    pub abuffer_fragments: u32,
     /// Side of a destination tile (samples).
     pub tile_size: u32,
     /// Destination tile cache capacity (bytes).
@@ -71,7 +71,7 @@ pub fn evaluate(stage: Stage, trace: &Trace, cfg: &EngineConfig) -> anyhow::Resu
     let c = Candidate {
         stage,
         supersample: cfg.supersample,
-        max_fragments: cfg.max_fragments,
+        abuffer_fragments: cfg.abuffer_fragments,
         tile_size: cfg.tile_size,
         dest_cache_bytes: cfg.dest_cache_bytes,
         dest_cache_tiles: cache_tiles(cfg.dest_cache_bytes, cfg.tile_size),
@@ -90,7 +90,7 @@ pub fn evaluate(stage: Stage, trace: &Trace, cfg: &EngineConfig) -> anyhow::Resu
         "size: {:?} ss={} fragments={} tile={} cache={} B: psnr_luma {:.3} dB, {} capacity misses",
         stage,
         c.supersample,
-        c.max_fragments,
+        c.abuffer_fragments,
         c.tile_size,
         c.dest_cache_bytes,
         c.psnr_luma_db.unwrap_or(f64::NAN),

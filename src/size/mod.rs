@@ -4,7 +4,7 @@
 //!
 //! Rules (the definition of *smallest*):
 //! 1. Among the knobs searched, only super-samples (`supersample`) and
-//!    A-buffer fragments per pixel (`max_fragments`) change the image; the
+//!    A-buffer fragments per pixel (`abuffer_fragments`) change the image; the
 //!    destination cache (`dest_cache_bytes`) and the tile size
 //!    (`tile_size`) change cost only (the hardware image is the golden
 //!    model's whatever they are; every cache-stage candidate is checked to
@@ -13,7 +13,7 @@
 //! 2. Quality stage: candidates in the order super-samples ascending
 //!    ([`variants::SUPERSAMPLES`]), then fragments ascending from 1 to
 //!    min(4, supersample²) (more fragments than samples per pixel cannot
-//!    change anything). `max_fragments = 0` (no A-buffer, samples stored
+//!    change anything). `abuffer_fragments = 0` (no A-buffer, samples stored
 //!    raw) is not tried: it is lossless but stores every sample, so it is
 //!    not smaller hardware. The first candidate whose mean luma PSNR (and
 //!    mean luma SSIM, if a floor is given) over the frames meets the floor
@@ -225,7 +225,7 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
         for f in 1..=MAX_FRAGMENTS_TRIED.min(t.supersample * t.supersample) {
             let mut cfg = base.clone();
             cfg.supersample = t.supersample;
-            cfg.max_fragments = f;
+            cfg.abuffer_fragments = f;
             cfg.validate().map_err(|e| anyhow!("hardware configuration: {e}"))?;
             let mut c = evaluate(Stage::Quality, &t.trace, &cfg)?;
             c.passes = o.floor.met(&c);

@@ -14,7 +14,7 @@ use std::path::Path;
 pub const CSV_COLUMNS: &[(&str, &str, &str)] = &[
     ("stage", "—", "quality (super-samples, fragments) or cache (cache, tile size)"),
     ("supersample", "samples", "super-samples per pixel along each axis"),
-    ("max_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory"),
+    ("abuffer_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory"),
     ("tile_size_samples", "samples", "side of a destination tile"),
     ("dest_cache_bytes", "bytes", "destination tile cache capacity"),
     ("dest_cache_tiles", "tiles", "destination tile cache capacity in tiles"),
@@ -46,7 +46,7 @@ pub fn csv(o: &Outcome) -> String {
             s,
             "{stage},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             c.supersample,
-            c.max_fragments,
+            c.abuffer_fragments,
             c.tile_size,
             c.dest_cache_bytes,
             c.dest_cache_tiles,
@@ -117,7 +117,7 @@ pub fn toml(o: &Outcome) -> Option<String> {
         writeln!(s, "# simulate it on a trace with supersample = {} (the trace's super-sampling wins)", c.supersample);
     let _ = writeln!(s, "preset = \"{}\"", o.preset);
     let _ = writeln!(s, "supersample = {}", c.supersample);
-    let _ = writeln!(s, "max_fragments = {}", c.max_fragments);
+    let _ = writeln!(s, "abuffer_fragments = {}", c.abuffer_fragments);
     let _ = writeln!(s, "tile_size = {}", c.tile_size);
     let _ = writeln!(s, "dest_cache_bytes = {}", c.dest_cache_bytes);
     Some(s)
@@ -132,7 +132,7 @@ fn row(s: &mut String, c: &Candidate, chosen: bool) {
             Stage::Cache => "cache",
         },
         c.supersample,
-        c.max_fragments,
+        c.abuffer_fragments,
         c.tile_size,
         c.dest_cache_bytes as f64 / 1024.0,
         c.dest_cache_tiles,

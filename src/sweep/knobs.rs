@@ -27,7 +27,7 @@ pub const GOLDEN_TO_HARDWARE: &[(&str, &str)] = &[
     ("slope_tol", "slope_tol"),
     ("rel_tol", "rel_tol"),
     ("better_margin", "better_margin"),
-    ("abuffer_fragments", "max_fragments"),
+    ("abuffer_fragments", "abuffer_fragments"),
     ("hole_far_distance", "hole_far_distance"),
     ("hole_far_offset", "hole_far_offset"),
     ("hole_max_distance", "hole_max_distance"),
@@ -168,7 +168,7 @@ mod tests {
         assert_eq!(c("threshold", "ratio of E"), "threshold_ratio_of_e");
         assert_eq!(c("kernel_limit", "samples"), "kernel_limit_samples");
         assert_eq!(c("abuffer_fragments", "fragments/pixel"), "abuffer_fragments_per_pixel");
-        assert_eq!(c("max_fragments", "fragments/pixel"), "max_fragments_per_pixel");
+        assert_eq!(c("abuffer_fragments", "fragments/pixel"), "abuffer_fragments_per_pixel");
         assert_eq!(c("rel_tol", "fraction of 1/Z"), "rel_tol_fraction_of_inv_z");
         assert_eq!(c("dest_cache_bytes", "bytes"), "dest_cache_bytes");
         assert_eq!(c("clock_hz", "Hz"), "clock_hz");
@@ -216,7 +216,7 @@ mod tests {
             1,
         )
         .unwrap();
-        assert_eq!((c.tile_size, c.threshold, c.max_fragments, c.supersample, c.views), (16, 2.0, 2, 1, 2));
+        assert_eq!((c.tile_size, c.threshold, c.abuffer_fragments, c.supersample, c.views), (16, 2.0, 2, 1, 2));
         let e = hardware_config(None, &[("tile_size", &toml::Value::Integer(2))], &[], 2).unwrap_err();
         assert!(e.starts_with("kernel_limit"), "{e}");
         assert!(hardware_key_error("supersample").unwrap().contains("trace"));

@@ -378,7 +378,16 @@ impl Parser<'_> {
 
     fn knob_table(&self, v: Option<&toml::Value>, at: &KeyPath, golden: bool) -> Result<Vec<Axis>, SpecError> {
         let Some(v) = v else { return Ok(Vec::new()) };
-        let t = v.as_table().ok_or_else(|| self.err(at, "expected a table of knobs"))?;
+        let given = v.as_table().ok_or_else(|| self.err(at, "expected a table of knobs"))?;
+        let mut t = toml::Table::new();
+        for (k, v) in given {
+            let name = if golden { k.as_str() } else { postwarp_rtl::config::current_knob_name(k) };
+            if name != k && given.contains_key(name) {
+                return Err(self
+                    .err(&at.key(k), format!("is the old name of `{name}`, which is also given; keep `{name}` only")));
+            }
+            t.insert(name.to_string(), v.clone());
+        }
         for k in t.keys() {
             let refused = if golden { knobs::golden_key_error(k) } else { knobs::hardware_key_error(k) };
             if let Some(e) = refused {
@@ -510,6 +519,15 @@ dest_cache_bytes = [65536, 131072]
         assert_eq!(g.traces[0].axes[0].values.len(), 2);
         assert_eq!(g.traces[1].axes.iter().map(|a| a.key.as_str()).collect::<Vec<_>>(), ["width", "camera_path"]);
         assert_eq!(g.hardware.iter().map(|a| a.key.as_str()).collect::<Vec<_>>(), ["preset", "dest_cache_bytes"]);
+    }
+
+    #[test]
+    fn a_renamed_hardware_knob_is_read_under_its_new_name() {
+        let base = "methods = \"all\"\n[[traces]]\npath = \"../traces/room\"\n[hardware]\n";
+        let s = parse(&format!("{base}max_fragments = [1, 2]\n")).unwrap();
+        assert_eq!(s.groups[0].hardware.iter().map(|a| a.key.as_str()).collect::<Vec<_>>(), ["abuffer_fragments"]);
+        let e = parse(&format!("{base}max_fragments = 1\nabuffer_fragments = 2\n")).unwrap_err();
+        assert!(e.message.contains("old name of `abuffer_fragments`"), "{e}");
     }
 
     #[test]

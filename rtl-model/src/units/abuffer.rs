@@ -1,5 +1,5 @@
 //! A-buffer packer and unpacker: frames in DRAM are held as at most
-//! `max_fragments` fragments per pixel (TR98 §10, after Carpenter) and
+//! `abuffer_fragments` fragments per pixel (TR98 §10, after Carpenter) and
 //! expanded back to super-samples on chip.
 //!
 //! Job: the packer compresses one pixel's `ss²` super-samples into
@@ -15,7 +15,7 @@
 //!   (sample `k = j·ss + i`), each either empty or a [`SampleIn`] (colour,
 //!   1/Z, slopes, kind real / hole fill, key, hole-fill weight), plus
 //!   [`AbufferParams`]; out: a [`PackedPixel`] (fragment count and up to
-//!   `max_fragments` [`Fragment`]s) and its byte count
+//!   `abuffer_fragments` [`Fragment`]s) and its byte count
 //!   ([`PackedPixel::bytes`]); counters in [`AbufferCounters`].
 //! - unpacker in: one pixel's fragments; out: per sample the covering
 //!   fragment (or none) and the 1/Z its plane gives at the sample
@@ -29,7 +29,7 @@
 //! Throughput/latency (assumption): one pixel per clock in each direction,
 //! packer and unpacker fully pipelined; the grouping is a chain of `ss²`
 //! compare stages and each forced merge a pairwise-minimum tree, unrolled
-//! for the worst case (`ss² − max_fragments` merges). This file computes
+//! for the worst case (`ss² − abuffer_fragments` merges). This file computes
 //! values and byte counts only; it counts no cycles.
 //!
 //! Rules (the golden model's, restated):
@@ -48,7 +48,7 @@
 //! 2. A fragment's colour is the mean of its samples' colours, its
 //!    hole-fill weight the mean of theirs (sums in f64, one division at the
 //!    end, rounded to f32).
-//! 3. Over the limit (more than `max_fragments` fragments, and more than
+//! 3. Over the limit (more than `abuffer_fragments` fragments, and more than
 //!    one): merge the closest pair, closeness ordered by (kinds differ,
 //!    keys differ, |Δ 1/Z at the centre| in f64), ties to the lowest pair
 //!    of indices; the merged fragment sits at the lower index and the
@@ -69,7 +69,7 @@
 //!    Derived frames keep 1/Z as stored (the compositor compares 1/Z
 //!    directly, where 1/Z <= 0 already means "beyond everything").
 //!
-//! With `max_fragments == 0` there is no A-buffer: samples are stored raw
+//! With `abuffer_fragments == 0` there is no A-buffer: samples are stored raw
 //! ([`RAW_SAMPLE_BYTES`] each) and come back unchanged; no counter moves.
 //!
 //! The golden model's fix-up: golden `round_trip_reference` gives such a
@@ -98,7 +98,7 @@
 //! |---|---|---|
 //! | pixel header ([`PIXEL_HEADER_BYTES`]) | 1 | fragment count (5 bits, 0–16) and 3 spare bits |
 //! | fragment ([`FRAGMENT_BYTES`]) | 16 | see below |
-//! | raw sample ([`RAW_SAMPLE_BYTES`], `max_fragments == 0`) | 16 | one super-sample as in the on-chip caches |
+//! | raw sample ([`RAW_SAMPLE_BYTES`], `abuffer_fragments == 0`) | 16 | one super-sample as in the on-chip caches |
 //!
 //! Fragment layout (128 bits):
 //!
@@ -134,7 +134,7 @@ pub const FRAGMENT_BYTES: u64 = 16;
 /// (5 bits for 0–16, padded to a byte).
 pub const PIXEL_HEADER_BYTES: u64 = 1;
 
-/// Bytes of one super-sample stored raw (no A-buffer, `max_fragments == 0`),
+/// Bytes of one super-sample stored raw (no A-buffer, `abuffer_fragments == 0`),
 /// the on-chip cache format.
 pub const RAW_SAMPLE_BYTES: u64 = crate::config::CACHE_BYTES_PER_SAMPLE;
 
@@ -152,7 +152,7 @@ pub struct AbufferParams {
     /// Super-samples per pixel per axis (1 to 4).
     pub ss: u32,
     /// Fragment limit per pixel (0 = no A-buffer: samples stored raw).
-    pub max_fragments: u32,
+    pub abuffer_fragments: u32,
     /// Z tolerance, slope term (dimensionless, times |∂x| + |∂y|).
     pub slope_tol: f64,
     /// Z tolerance, relative term (fraction of 1/Z).
@@ -316,7 +316,7 @@ impl Packer {
     }
 
     /// Pack one pixel (rules 1–3). `samples[k]` is sample `k` of the pixel
-    /// (`ss²` entries, `None` = empty); `p.max_fragments` must be at least 1.
+    /// (`ss²` entries, `None` = empty); `p.abuffer_fragments` must be at least 1.
     pub fn pack_pixel(
         &mut self,
         samples: &[Option<SampleIn>],
@@ -338,7 +338,7 @@ impl Packer {
         c: &mut AbufferCounters,
     ) -> &PackedPixel {
         let ss = p.ss;
-        assert!(p.max_fragments >= 1, "the packer needs at least one fragment per pixel");
+        assert!(p.abuffer_fragments >= 1, "the packer needs at least one fragment per pixel");
         assert!(samples.len() == (ss * ss) as usize && samples.len() <= MAX_SAMPLES_PER_PIXEL, "ss = {ss}");
         let regs = &mut self.regs;
         let mut n = 0usize;
@@ -384,7 +384,7 @@ impl Packer {
         }
         c.record(n);
         // Rule 3: forced merges.
-        while n > p.max_fragments as usize && n > 1 {
+        while n > p.abuffer_fragments as usize && n > 1 {
             let (i, j) = closest_pair(&regs[..n]);
             let b = regs[j];
             regs.copy_within(j + 1..n, j);
@@ -441,7 +441,7 @@ fn pixel_samples(width: u32, ss: u32, px: u32, py: u32) -> impl Iterator<Item = 
 }
 
 /// A reference frame in memory: fragments per pixel (or raw samples when
-/// `max_fragments == 0`).
+/// `abuffer_fragments == 0`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PackedReference {
     /// Width of the frame (samples).
@@ -456,13 +456,13 @@ pub struct PackedReference {
     first: Vec<u32>,
     /// All fragments, pixel after pixel.
     frags: Vec<Fragment>,
-    /// The samples themselves when stored raw (`max_fragments == 0`).
+    /// The samples themselves when stored raw (`abuffer_fragments == 0`).
     raw: Option<SampleImage>,
 }
 
 /// Pack a reference frame (the conversion of renderer output to A-buffer
 /// format): every whole pixel through the packer. With
-/// `p.max_fragments == 0` the samples are stored raw.
+/// `p.abuffer_fragments == 0` the samples are stored raw.
 pub fn pack_reference(img: &SampleImage, p: &AbufferParams, c: &mut AbufferCounters) -> PackedReference {
     let (pw, ph) = (img.width / p.ss, img.height / p.ss);
     let mut out = PackedReference {
@@ -474,7 +474,7 @@ pub fn pack_reference(img: &SampleImage, p: &AbufferParams, c: &mut AbufferCount
         frags: Vec::new(),
         raw: None,
     };
-    if p.max_fragments == 0 {
+    if p.abuffer_fragments == 0 {
         out.raw = Some(img.clone());
         return out;
     }
@@ -515,7 +515,7 @@ impl PackedReference {
         self.height / self.ss
     }
 
-    /// True if the samples are stored raw (`max_fragments == 0`).
+    /// True if the samples are stored raw (`abuffer_fragments == 0`).
     pub fn is_raw(&self) -> bool {
         self.raw.is_some()
     }
@@ -596,7 +596,7 @@ pub fn reference_depth(inv_z: f32) -> f32 {
 /// hole-fill weight) of those pixels are rewritten in place as the golden
 /// model's `round_trip_dest` does; cache-only planes are untouched.
 /// Returns the bytes the pixels occupy in memory. With
-/// `p.max_fragments == 0` nothing changes and the bytes are the raw samples'.
+/// `p.abuffer_fragments == 0` nothing changes and the bytes are the raw samples'.
 ///
 /// Precondition (an invariant of the compositor and the hole fill): no
 /// sample is both `real` and `hole`.
@@ -614,7 +614,7 @@ pub fn round_trip_dest_pixels(
     if px0 >= px1 || py0 >= py1 {
         return 0;
     }
-    if p.max_fragments == 0 {
+    if p.abuffer_fragments == 0 {
         return (px1 - px0) as u64 * (py1 - py0) as u64 * (ss * ss) as u64 * RAW_SAMPLE_BYTES;
     }
     let n = (ss * ss) as usize;
@@ -665,7 +665,7 @@ mod tests {
     use super::*;
 
     fn params(n: u32) -> AbufferParams {
-        AbufferParams { ss: 2, max_fragments: n, slope_tol: 2.0, rel_tol: 0.01 }
+        AbufferParams { ss: 2, abuffer_fragments: n, slope_tol: 2.0, rel_tol: 0.01 }
     }
 
     fn real(inv_z: f32, key: u32, colour: f32) -> Option<SampleIn> {
