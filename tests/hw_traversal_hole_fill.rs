@@ -46,13 +46,14 @@ fn check_order(w: u32, h: u32, e: &Epipole) {
     }
     assert_eq!(flat(&lines), want, "{ctx}: forward order");
 
-    // Lines group into the golden sheets, with the same scan patterns.
+    // Each sheet's lines, taken out of the interleaved sweeps, are the
+    // golden sheet with the same scan pattern, in order.
     let sheets = golden::sheets(w, h, e);
     let mut groups: Vec<Vec<Line>> = Vec::new();
-    for l in &lines {
-        match groups.last_mut() {
-            Some(g) if g[0].sheet == l.sheet => g.push(*l),
-            _ => groups.push(vec![*l]),
+    for n in 0..8u8 {
+        let g: Vec<Line> = lines.iter().copied().filter(|l| l.sheet == n).collect();
+        if !g.is_empty() {
+            groups.push(g);
         }
     }
     assert_eq!(groups.len(), sheets.len(), "{ctx}: sheet count");

@@ -17,7 +17,7 @@
 
 use postwarp::golden::hole_fill::{HoleFillParams as GoldenParams, hole_fill};
 use postwarp::golden::planes::DestPlanes;
-use postwarp::golden::traversal::{Major, visit};
+use postwarp::golden::traversal::{Major, OrderKey, SheetInfo, order};
 use postwarp_rtl::DestFrame;
 use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::units::hole_fill::{HoleFillParams, HoleFillUnit};
@@ -62,6 +62,15 @@ fn params() -> impl Strategy<Value = HoleFillParams> {
             max_distance: c
         }),
     ]
+}
+
+/// Every sample in the hole fill's order (the golden model's
+/// `traversal::order`, sweeps interleaved), with its sheet's scan pattern.
+fn visit(width: u32, height: u32, e: &Epipole, mut f: impl FnMut(&SheetInfo, u32, u32)) {
+    let keys = OrderKey::new(width, height, e);
+    for (x, y) in order(width, height, e) {
+        f(&keys.scan_at(x, y), x, y);
+    }
 }
 
 /// The reference model: the pass as `golden::hole_fill` documents it, with

@@ -34,9 +34,12 @@
 //! 1.1 GB/s at 30 Hz for this frame, so the channel has headroom. The
 //! destination cache of 576 KiB covers the §5 working-set example (573 KB
 //! for a 1280-sample-wide sweep with 16 rows of tilt plus parallax); the
-//! source cache of 64 KiB holds two pixel rows of a 1071-pixel-wide
-//! reference in A-buffer format (2 × 1071 × 1.2 fragments × 12 B ≈ 31 KB)
-//! twice over. Transform pipeline depth 12 cycles (a reciprocal and the
+//! source cache of 256 KiB holds one full column of the reference's
+//! A-buffer blocks (a 1496-sample column of the enlarged 2x2 reference is
+//! 187 blocks of about 1.3 KB), which the column sweeps of
+//! `traversal` rule 6 reuse line after line (64 KiB, two pixel rows,
+//! sufficed while sheets were warped one by one in half columns; with
+//! whole-column sweeps it reads every block about twice). Transform pipeline depth 12 cycles (a reciprocal and the
 //! 13-operation incremental warp), one sample per cycle.
 //!
 //! `hmd2026`: a stereo head-mounted display, 2 views of 2000x2000 at 90 Hz,
@@ -191,7 +194,13 @@ impl Default for EngineConfig {
             transform_throughput: 1,
             tile_size: 8,
             dest_cache_bytes: 576 * 1024,
-            source_cache_bytes: 64 * 1024,
+            // One full reference column of A-buffer blocks (1496 samples of
+            // a 2x2 640x480 reference with its enlarged field of view: 187
+            // blocks of about 1.3 KB): the sweeps of traversal rule 6 run
+            // whole columns, and consecutive lines reuse a column's blocks.
+            // At 64 KiB the 640x480 room frames read every block about
+            // twice (36.9 against 17.7 MB of reference fetch per frame).
+            source_cache_bytes: 256 * 1024,
             dram_peak_bytes_per_cycle: 16,
             dram_latency_cycles: 12,
             dram_burst_bytes: 32,

@@ -60,7 +60,7 @@ use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, MemPort, Tag};
 use crate::schedule::{Schedule, release_order};
 use crate::timeline::{Occupancy, Timeline};
-use crate::traversal::reverse_lines;
+use crate::traversal::warp_lines;
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
 use crate::units::dest_cache::DestCache;
@@ -374,7 +374,7 @@ struct WarpPlan {
 impl WarpPlan {
     fn new(cfg: &EngineConfig, w: &WarpInput<'_>, (dw, dh): (u32, u32)) -> WarpPlan {
         let img = &w.r.samples;
-        let lines = reverse_lines(img.width, img.height, &w.tu.setup.epipole_reference);
+        let lines = warp_lines(img.width, img.height, &w.tu.setup.epipole_reference);
         let sched = Schedule::new(img, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size);
         let params = HoleFillParams {
             far_distance: cfg.hole_far_distance,
@@ -496,6 +496,7 @@ impl<'s> Pipeline<'s> {
         s.live_lines += live;
         s.dead_lines += plan.sched.live.len() as u64 - live;
         s.tile_loads.push(m.cache.loads());
+        s.peak_tiles.push(m.cache.tags().peak() as u64);
         let (evictions, ab) = self.packer.counts();
         s.tile_evictions.push(evictions);
         m.ab.add(ab);

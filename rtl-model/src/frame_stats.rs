@@ -45,6 +45,9 @@ pub struct FrameStats {
     pub source_cache: SourceCacheCounters,
     /// Destination tiles brought into the cache, per reference warp (tiles).
     pub tile_loads: Vec<u64>,
+    /// Most destination tiles held at once (resident or loading), per
+    /// reference warp (tiles).
+    pub peak_tiles: Vec<u64>,
     /// Destination tiles released and written back, per reference warp (tiles).
     pub tile_evictions: Vec<u64>,
     /// Reference samples streamed to the transform unit, over all warps (samples).
@@ -105,6 +108,11 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("source_cache.evictions", "blocks", "blocks evicted from the source cache to make room"),
     StatDef::counter("source_cache.wait_cycles", "cycles", "cycles the fetch unit waited for a block"),
     StatDef::counter("tile_loads.<warp>", "tiles", "destination tiles brought into the cache in one warp"),
+    StatDef::counter(
+        "peak_tiles.<warp>",
+        "tiles",
+        "most destination tiles held in the cache at once (resident or loading) in one warp",
+    ),
     StatDef::counter("tile_evictions.<warp>", "tiles", "destination tiles released and written back in one warp"),
     StatDef::counter("samples_transformed", "samples", "reference samples streamed to the transform unit"),
     StatDef::counter("culled_samples", "samples", "reference samples on live lines behind the derived camera"),
@@ -183,6 +191,9 @@ impl FrameStats {
         put("source_cache.wait_cycles".into(), s.wait_cycles);
         for (warp, &n) in self.tile_loads.iter().enumerate() {
             put(format!("tile_loads.{warp}"), n);
+        }
+        for (warp, &n) in self.peak_tiles.iter().enumerate() {
+            put(format!("peak_tiles.{warp}"), n);
         }
         for (warp, &n) in self.tile_evictions.iter().enumerate() {
             put(format!("tile_evictions.{warp}"), n);

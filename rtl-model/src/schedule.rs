@@ -4,21 +4,28 @@
 //!
 //! Job, per reference warp:
 //! 1. **Fetch plan.** The warp visits the reference in the reverse
-//!    eight-sheet order ([`crate::traversal::reverse_lines`]). Kernel setup
-//!    needs each line's 3x3 neighbourhood, so for every sheet the fetch
+//!    eight-sheet order, sweep by sweep ([`crate::traversal::warp_lines`]). Kernel setup
+//!    needs each line's 3x3 neighbourhood, so for every sweep (two sheets
+//!    interleaved, [`crate::traversal`] rule 6) the fetch
 //!    unit streams, line by line, the line before the sheet's first line,
 //!    every line, and the line after its last, each widened by one sample
 //!    at both ends and merged with its neighbours' widened extents: the
 //!    [`FetchInterval`]s. A line's kernels may start once the interval of
 //!    the next line has been transformed ([`Schedule::need`]). Samples on
-//!    sheet borders are fetched and transformed by both sheets (counted).
+//!    the borders between sweeps are fetched and transformed by both
+//!    sweeps (counted); the two sheets of a sweep share one interval per
+//!    line.
 //! 2. **Off-screen culling.** Lines are split into chunks of
 //!    [`CHUNK`] samples. A chunk's kernel corners all lie in the projective
 //!    image of the box `[a − 1.5, b + 1.5] x [l − 1.5, l + 1.5] x [δmin,
 //!    δmax]` (δ the 1/Z range, extrapolated half a sample by the slopes,
 //!    over the [`BLOCK`]-sample blocks the widened chunk touches). If `W > 0`
 //!    at its eight corners that image lies in their convex hull, whose
-//!    bounding box bounds every kernel of the chunk. Lines all of whose
+//!    bounding box bounds every kernel of the chunk. `W` is affine in the
+//!    box's coordinates, so with `W ≤ 0` at all eight corners every sample
+//!    of the chunk is behind the derived camera (no kernel: the chunk
+//!    touches nothing); with mixed signs the chunk may touch any tile.
+//!    Lines all of whose
 //!    chunks miss the derived image are *dead*: not fetched unless a live
 //!    neighbour needs them, and no kernels.
 //! 3. **Tile retirement.** A destination tile is *retired* once every line
@@ -38,7 +45,7 @@
 
 use crate::camera::WarpSetup;
 use crate::sample_image::SampleImage;
-use crate::traversal::{Line, Major};
+use crate::traversal::{Line, Major, sweep_of};
 
 /// Samples per culling chunk along a line.
 pub const CHUNK: u32 = 16;
@@ -170,6 +177,7 @@ fn chunk_bounds(
     let (fx0, fx1) = (x0 as f64 - 1.5, x1 as f64 + 1.5);
     let (fy0, fy1) = (y0 as f64 - 1.5, y1 as f64 + 1.5);
     let mut r = [f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY];
+    let mut behind = 0;
     for (x, y, d) in [
         (fx0, fy0, lo),
         (fx1, fy0, lo),
@@ -181,12 +189,20 @@ fn chunk_bounds(
         (fx1, fy1, hi),
     ] {
         let w = setup.warp(x, y, d);
-        if !(w.w > 0.0 && w.position.is_finite()) {
+        if w.w <= 0.0 {
+            behind += 1;
+            continue;
+        }
+        if !w.position.is_finite() {
             return None;
         }
         r = [r[0].min(w.position.x), r[1].max(w.position.x), r[2].min(w.position.y), r[3].max(w.position.y)];
     }
-    Some((r[0], r[1], r[2], r[3]))
+    match behind {
+        0 => Some((r[0], r[1], r[2], r[3])),
+        8 => Some((f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY)),
+        _ => None,
+    }
 }
 
 impl Schedule {
@@ -253,9 +269,14 @@ fn fetch_plan(lines: &[Line], live: &[bool], size: (u32, u32)) -> (Vec<FetchInte
     let mut need = vec![None; lines.len()];
     let mut s = 0;
     while s < lines.len() {
-        // One sheet: consecutive lines with the same sheet number and axis.
+        // One sweep (two interleaved sheets, traversal rule 6): consecutive
+        // lines with the same sweep, axis and direction.
         let mut e = s + 1;
-        while e < lines.len() && lines[e].sheet == lines[s].sheet && lines[e].major == lines[s].major {
+        while e < lines.len()
+            && sweep_of(lines[e].sheet).0 == sweep_of(lines[s].sheet).0
+            && lines[e].line_step == lines[s].line_step
+            && lines[e].major == lines[s].major
+        {
             e += 1;
         }
         let sheet = &lines[s..e];

@@ -32,7 +32,7 @@
 //!    sheets. With `dx = x − e.x`, `dy = y − e.y` evaluated in `f64`, a
 //!    sample is *vertical* if `|dy| ≥ |dx|` (a tie is vertical), *right* if
 //!    `dx ≥ 0`, *below* if `dy ≥ 0`. Sheet number = 4·horizontal + 2·left +
-//!    1·above, and sheets are emitted in that numeric order.
+//!    1·above (sheets are emitted in sweeps, rule 6).
 //! 3. Vertical sheets are scanned row by row ([`Major::Row`]), horizontal
 //!    ones column by column ([`Major::Column`]). Inside a sheet `D`'s
 //!    component signs are fixed: lines advance along the sign of `D`'s
@@ -50,10 +50,30 @@
 //!    (number 0), row by row if `|ey| ≥ |ex|`, else column by column, signs
 //!    from `(ex, ey)`. Coincident centres (`h = 0`): one sheet, row by row,
 //!    top to bottom, left to right.
-//! 6. The reverse order ([`reverse_lines`]) is the forward order read
+//! 6. Sweeps. Occlusion only happens between samples on one ray from the
+//!    epipole, and every such ray lies in one sheet, so only the order
+//!    within a sheet is fixed; sheets may be visited in any order, even
+//!    interleaved. The two sheets with the same axis and the same direction
+//!    across lines ([`sweep_of`]: vertical sheets below, vertical above,
+//!    horizontal right, horizontal left of the epipole: sweeps 0–3) are
+//!    interleaved by line index into one *sweep*, so each sweep crosses its
+//!    half-plane as one front of whole rows or columns; sweeps are emitted
+//!    in that order, and at one line index the lower-numbered sheet first.
+//!    With the epipole outside the image (most frames) the image is one or
+//!    two sweeps, and the warp's front and the hole fill's cross the
+//!    derived image together: a tile is filled and leaves the cache soon
+//!    after the warp has passed it (`docs/units.md`, "Destination cache").
+//! 7. The reverse order ([`reverse_lines`]) is the forward order read
 //!    backwards: last line first, each line from its other end (the warp
 //!    traverses the reference image this way, so that its sweep crosses the
 //!    derived image in hole-fill order).
+//! 8. The warp's order ([`warp_lines`]) visits the sweeps in increasing
+//!    order, each read backwards as in rule 7: while the warp runs sweep
+//!    `k` of the reference, the hole fill can follow on sweep `k` of the
+//!    derived image (the two are the same half-plane of epipolar lines when
+//!    the epipoles are outside both images; with an epipole inside, the
+//!    sweeps of the two images do not correspond and the fill of a sweep
+//!    may wait for a later one).
 //!
 //! Not modelled: the cycle cost of the per-line end search (counted as
 //! free), tiling of the image (the engine's tile schedule is separate),
@@ -152,6 +172,16 @@ fn single(dx: f64, dy: f64) -> Pattern {
     } else {
         Pattern { major: Major::Column, line_step: dir(dx), step: dir(dy) }
     }
+}
+
+/// The sweep of sheet `sheet` (rule 6): sheets with the same axis and the
+/// same direction of travel across lines (vertical sheets on one side of
+/// the epipole's row, horizontal ones on one side of its column) share a
+/// sweep. Returns (sweep 0–3, 0 for the lower-numbered sheet of the pair or
+/// 1 for the other).
+pub fn sweep_of(sheet: u8) -> (u8, u8) {
+    let (horizontal, left, above) = sheet_bits(sheet);
+    if horizontal { (2 + left as u8, above as u8) } else { (above as u8, left as u8) }
 }
 
 /// Sheet number → (horizontal, left, above).
@@ -291,8 +321,15 @@ fn each_line(width: u32, height: u32, epipole: &Epipole, mut f: impl FnMut(Line)
 /// descriptors: concatenating their [`Line::samples`] visits every sample
 /// exactly once, in the golden model's `traversal::order`.
 pub fn forward_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
-    let mut out = Vec::new();
-    each_line(width, height, epipole, |l| out.push(l));
+    let mut sweeps: [Vec<Line>; 4] = Default::default();
+    each_line(width, height, epipole, |l| sweeps[sweep_of(l.sheet).0 as usize].push(l));
+    let mut out = Vec::with_capacity(sweeps.iter().map(Vec::len).sum());
+    for mut lines in sweeps {
+        // Rule 6: the two sheets of a sweep interleave by line index (the
+        // sort is stable: at one line the lower-numbered sheet comes first).
+        lines.sort_by_key(|l| l.line as i64 * l.line_step as i64);
+        out.extend(lines);
+    }
     out
 }
 
@@ -305,6 +342,26 @@ pub fn reverse_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
         *l = l.reversed();
     }
     out
+}
+
+/// The warp's order (rule 8): the sweeps in increasing order, each one
+/// read backwards (last line first, each line from its other end).
+pub fn warp_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
+    let back = reverse_lines(width, height, epipole);
+    let mut out = Vec::with_capacity(back.len());
+    for sweep in 0..4 {
+        out.extend(back.iter().filter(|l| sweep_of(l.sheet).0 == sweep));
+    }
+    out
+}
+
+/// The position of a sample in the warp's order ([`warp_lines`]), from
+/// its [`OrderKey::key`] `k`: the same sweep, the rest of the key
+/// complemented, so that sorting by it gives the warp's order.
+pub fn warp_key(k: u64, keys: &OrderKey) -> u64 {
+    let span = keys.sweep_span();
+    let (sweep, rest) = (k / span, k % span);
+    sweep * span + (span - 1 - rest)
 }
 
 /// The position of any sample in the forward order, in O(1): sorting
@@ -331,9 +388,16 @@ impl OrderKey {
         OrderKey { width, height, cut, patterns }
     }
 
+    /// Keys per sweep: `key / sweep_span()` is a sample's sweep.
+    pub fn sweep_span(&self) -> u64 {
+        2 * self.width as u64 * self.height as u64
+    }
+
     /// OrderKey of sample `(x, y)` (inside the image): distinct for distinct
     /// samples, increasing along the forward order. Encoded as
-    /// `sheet · width·height + line index · line length + index in line`.
+    /// `sweep · 2·width·height + line index · 2·line length + half · line
+    /// length + index in line` (rule 6; `half` is 0 for the lower-numbered
+    /// sheet of the sweep).
     pub fn key(&self, x: u32, y: u32) -> u64 {
         debug_assert!(x < self.width && y < self.height, "({x},{y}) outside {}x{}", self.width, self.height);
         let sheet = match self.cut {
@@ -348,7 +412,8 @@ impl OrderKey {
         let li = if p.line_step > 0 { l } else { lines - 1 - l } as u64;
         let ai = if p.step > 0 { a } else { len - 1 - a } as u64;
         let n = self.width as u64 * self.height as u64;
-        sheet as u64 * n + li * len as u64 + ai
+        let (sweep, half) = sweep_of(sheet);
+        sweep as u64 * 2 * n + li * 2 * len as u64 + half as u64 * len as u64 + ai
     }
 }
 
@@ -382,6 +447,24 @@ mod tests {
             assert!(o.windows(2).all(|p| r.key(p[0].0, p[0].1) < r.key(p[1].0, p[1].1)), "{h:?}");
             let back: Vec<_> = reverse_lines(w, ht, &e).iter().flat_map(|l| l.samples()).collect();
             assert!(back.iter().eq(o.iter().rev()));
+            // The warp's order: sorted by its key, sweeps increasing, and
+            // every sheet exactly backwards.
+            let warp_lines = warp_lines(w, ht, &e);
+            let warp: Vec<_> = warp_lines.iter().flat_map(|l| l.samples()).collect();
+            let wk = |p: &(u32, u32)| warp_key(r.key(p.0, p.1), &r);
+            assert!(warp.windows(2).all(|p| wk(&p[0]) < wk(&p[1])), "{h:?}");
+            assert!(
+                warp.windows(2)
+                    .all(|p| r.key(p[0].0, p[0].1) / r.sweep_span() <= r.key(p[1].0, p[1].1) / r.sweep_span())
+            );
+            for sheet in 0..8 {
+                let mine = |ls: &[Line]| -> Vec<(u32, u32)> {
+                    ls.iter().filter(|l| l.sheet == sheet).flat_map(|l| l.samples()).collect()
+                };
+                let mut fwd = mine(&forward_lines(w, ht, &e));
+                fwd.reverse();
+                assert_eq!(mine(&warp_lines), fwd, "{h:?}: sheet {sheet} not exactly backwards");
+            }
         }
     }
 

@@ -114,7 +114,11 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ("hole_far_distance", "samples", "hole-fill distance past which the two far taps join"),
     ("hole_far_offset", "samples", "offset of the far hole-fill taps"),
     ("hole_max_distance", "samples", "saturation of the hole-fill distance plane"),
-    ("warp_order", "reverse|forward", "reference traversal: reverse or forward occlusion-compatible eight-sheet order"),
+    (
+        "warp_order",
+        "reverse|forward",
+        "reference traversal: the occlusion-compatible eight-sheet order reversed within each sweep (sweeps in order), or forward",
+    ),
     ("reconstruction", "aa-rect|general", "anti-aliased flat rectangles, or mesh + edge splats"),
 ];
 

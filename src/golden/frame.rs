@@ -455,8 +455,7 @@ fn warp_reference(
                 // gives the warp order.
                 shared.sort_unstable_by_key(|&e| {
                     let kern = &kernels[e as u32 as usize];
-                    let key = keys.key(kern.x, kern.y);
-                    if reverse { !key } else { key }
+                    if reverse { keys.warp_key(kern.x, kern.y) } else { keys.key(kern.x, kern.y) }
                 });
                 for &e in shared.iter() {
                     draw(d, s, &kernels[e as u32 as usize]);

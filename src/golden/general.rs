@@ -186,10 +186,11 @@ pub fn warp_reference_general_with(
         };
     }
 
-    let mut order = traversal::order(w, h, &ctx.setup.epipole_reference);
-    if cfg.warp_order == WarpOrder::Reverse {
-        order.reverse();
-    }
+    let order = if cfg.warp_order == WarpOrder::Reverse {
+        traversal::warp_order(w, h, &ctx.setup.epipole_reference)
+    } else {
+        traversal::order(w, h, &ctx.setup.epipole_reference)
+    };
     let mut rank = vec![0usize; img.len()];
     for (k, &(x, y)) in order.iter().enumerate() {
         rank[img.index(x, y)] = k;

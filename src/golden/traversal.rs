@@ -19,11 +19,21 @@
 //!    and samples within them in the order of the other component's sign.
 //! 4. Epipole at infinity (`ew = 0`): one sheet; row-major if
 //!    `|Dy| ≥ |Dx|`, else column-major. Coincident centres: row-major.
-//! 5. Octants are visited in a fixed order (the order does not matter for
-//!    occlusion, because every epipolar half-line stays within one octant).
-//! 6. The warp uses the *reverse* of this order in the reference image, so
-//!    that its sweep front crosses the derived image in the hole-fill order
-//!    (`docs/warper-reference.md` §5, critical consistency point).
+//! 5. Octants may be visited in any order, even interleaved (the order does
+//!    not matter for occlusion, because every epipolar half-line stays
+//!    within one octant). [`order`] and [`OrderKey`] interleave the two
+//!    octants with the same axis and line direction (vertical below,
+//!    vertical above, horizontal right, horizontal left of the epipole:
+//!    *sweeps* 0–3) by line index, the lower-numbered octant first at one
+//!    line (octant number = 4·horizontal + 2·left + 1·above), so that each
+//!    sweep crosses its half-plane as one front; [`visit`] and [`sheets`]
+//!    give the octants one after the other.
+//! 6. The warp uses the *reverse* of this order within each sweep in the
+//!    reference image, so that its sweep front crosses the derived image in
+//!    the hole-fill order (`docs/warper-reference.md` §5, critical
+//!    consistency point), and visits the sweeps in increasing order, so that
+//!    the fill of sweep `k` of the derived image can follow the warp of
+//!    sweep `k` of the reference ([`warp_order`], [`OrderKey::warp_key`]).
 //!
 //! Not modelled here: tile order (the hardware schedule), seams between
 //! octants near the epipole (adjacent samples on different octants may be
@@ -100,9 +110,31 @@ pub fn sheets(width: u32, height: u32, epipole: &Epipole) -> Vec<Sheet> {
     out
 }
 
-/// The forward order as one flat list.
+/// The forward order as one flat list: the samples of [`visit`] with the
+/// octants of each sweep interleaved (rule 5), i.e. sorted by
+/// [`OrderKey::key`].
 pub fn order(width: u32, height: u32, epipole: &Epipole) -> Vec<(u32, u32)> {
-    sheets(width, height, epipole).into_iter().flat_map(|s| s.samples).collect()
+    let keys = OrderKey::new(width, height, epipole);
+    let mut out: Vec<(u64, (u32, u32))> = Vec::with_capacity(width as usize * height as usize);
+    visit(width, height, epipole, |_, x, y| out.push((keys.key(x, y), (x, y))));
+    out.sort_unstable_by_key(|e| e.0);
+    out.into_iter().map(|e| e.1).collect()
+}
+
+/// The warp's order (rule 6): the sweeps in increasing order, each read
+/// backwards; sorted by [`OrderKey::warp_key`].
+pub fn warp_order(width: u32, height: u32, epipole: &Epipole) -> Vec<(u32, u32)> {
+    let keys = OrderKey::new(width, height, epipole);
+    let mut o = order(width, height, epipole);
+    o.sort_by_key(|&(x, y)| keys.warp_key(x, y));
+    o
+}
+
+/// The sweep of octant number `sheet` (rule 5) and which of its two
+/// octants it is (0: the lower-numbered).
+fn sweep_of(sheet: usize) -> (u64, u64) {
+    let (horizontal, left, above) = (sheet & 4 != 0, sheet & 2 != 0, sheet & 1 != 0);
+    if horizontal { (2 + left as u64, above as u64) } else { (above as u64, left as u64) }
 }
 
 fn sign(v: f64) -> i32 {
@@ -274,7 +306,8 @@ impl OrderKey {
         info(self.scans[self.sheet(x, y)])
     }
 
-    /// Rank key of sample `(x, y)`: sheet, then line, then position in line.
+    /// Rank key of sample `(x, y)`: sweep, then line, then which octant of
+    /// the sweep, then position in line (rule 5).
     pub fn key(&self, x: u32, y: u32) -> u64 {
         let sheet = self.sheet(x, y);
         let (major, line_step, step) = self.scans[sheet];
@@ -284,7 +317,16 @@ impl OrderKey {
         };
         let l = if line_step > 0 { line } else { lines - 1 - line } as u64;
         let a = if step > 0 { along } else { len - 1 - along } as u64;
-        ((sheet as u64) << 56) | (l << 28) | a
+        let (sweep, half) = sweep_of(sheet);
+        (sweep << 58) | (l << 29) | (half << 28) | a
+    }
+
+    /// Rank key of sample `(x, y)` in the warp's order (rule 6): its sweep,
+    /// then the rest of [`OrderKey::key`] complemented.
+    pub fn warp_key(&self, x: u32, y: u32) -> u64 {
+        let k = self.key(x, y);
+        let rest = (1u64 << 58) - 1;
+        (k & !rest) | (!k & rest)
     }
 }
 
@@ -374,10 +416,31 @@ mod tests {
         for hv in cases {
             let e = Epipole { h: hv };
             let k = OrderKey::new(w, h, &e);
-            let mut all: Vec<(u32, u32)> = (0..h).flat_map(|y| (0..w).map(move |x| (x, y))).collect();
-            all.sort_by_key(|&(x, y)| k.key(x, y));
-            assert_eq!(all, order(w, h, &e), "epipole {hv:?}");
+            let o = order(w, h, &e);
+            check_permutation(w, h, &o);
             visit(w, h, &e, |s, x, y| assert_eq!(*s, k.scan_at(x, y), "epipole {hv:?} at ({x},{y})"));
+            // Interleaving keeps every octant's own order (rule 5) ...
+            for sheet in sheets(w, h, &e) {
+                let mine: Vec<(u32, u32)> = o.iter().copied().filter(|p| sheet.samples.contains(p)).collect();
+                assert_eq!(mine, sheet.samples, "epipole {hv:?}: an octant's order changed");
+            }
+            // ... and a sweep's front only moves forward: the line index of
+            // its samples never decreases along the order.
+            let line_rank = |(x, y): (u32, u32)| {
+                let s = k.scan_at(x, y);
+                let (l, n) = match s.major {
+                    Major::Row => (y, h),
+                    Major::Column => (x, w),
+                };
+                if s.line_step > 0 { l } else { n - 1 - l }
+            };
+            let mut last = [None::<u32>; 4];
+            for &p in &o {
+                let sweep = (k.key(p.0, p.1) >> 58) as usize;
+                let r = line_rank(p);
+                assert!(last[sweep].is_none_or(|q| q <= r), "epipole {hv:?}: sweep {sweep} stepped back at {p:?}");
+                last[sweep] = Some(r);
+            }
         }
     }
 

@@ -178,6 +178,9 @@ pub struct HwCounters<N> {
     pub tile_loads: Vec<N>,
     /// Destination tiles released and written back, per reference warp (tiles).
     pub tile_evictions: Vec<N>,
+    /// Most destination tiles held at once, per reference warp (tiles).
+    #[serde(default)]
+    pub peak_tiles: Vec<N>,
     /// Rectangles by drawn size `"WxH"` (rectangles).
     pub rects_by_size: BTreeMap<String, N>,
     /// Rectangles rasterized (rectangles).
@@ -258,6 +261,7 @@ impl HwCounters<u64> {
             },
             tile_loads: s.tile_loads.clone(),
             tile_evictions: s.tile_evictions.clone(),
+            peak_tiles: s.peak_tiles.clone(),
             rects: rects_by_size.values().sum(),
             rects_by_size,
             kernels: s.kernels,
@@ -512,6 +516,14 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "per reference warp: destination tiles released, packed to A-buffer format and written back (raw spills \
              not included)",
         ),
+        KeyDoc {
+            key: "peak_tiles",
+            unit: "tiles",
+            reduce: Reduce::Max,
+            shape: Shape::List,
+            meaning: "per reference warp: the most destination tiles held in the cache at once (resident or loading); \
+                      the warp's working set when the cache is large enough not to spill",
+        },
         KeyDoc {
             key: "rects_by_size",
             unit: "rectangles",

@@ -140,6 +140,15 @@ fn larger(a: &Value, b: &Value) -> Value {
                 a.clone()
             }
         }
+        (Value::Array(x), Value::Array(y)) => Value::Array(
+            (0..x.len().max(y.len()))
+                .map(|i| match (x.get(i), y.get(i)) {
+                    (Some(p), Some(q)) => larger(p, q),
+                    (Some(p), None) | (None, Some(p)) => p.clone(),
+                    (None, None) => Value::Null,
+                })
+                .collect(),
+        ),
         (Value::Null, v) | (v, Value::Null) => v.clone(),
         (a, _) => a.clone(),
     }

@@ -89,6 +89,8 @@ pub struct TileCache {
     lru: Lru,
     /// Tiles holding a slot: resident or loading.
     held: usize,
+    /// Most tiles held at once since the warp began.
+    peak: usize,
     /// Counters since the cache was made.
     pub counters: TileCacheCounters,
 }
@@ -101,6 +103,7 @@ impl TileCache {
             state: vec![TileState::Untouched; tiles],
             lru: Lru::new(tiles),
             held: 0,
+            peak: 0,
             counters: TileCacheCounters::default(),
         }
     }
@@ -115,12 +118,18 @@ impl TileCache {
         self.held
     }
 
+    /// Most tiles held at once (resident or loading) since the warp began.
+    pub fn peak(&self) -> usize {
+        self.peak
+    }
+
     /// Start a new warp: every tile untouched (the cache is empty between
     /// warps: the previous warp released every tile).
     pub fn begin_warp(&mut self) {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
         self.state.fill(TileState::Untouched);
         self.lru.clear();
+        self.peak = 0;
     }
 
     /// State of tile `t`.
@@ -171,6 +180,7 @@ impl TileCache {
                     }
                 }
                 self.held += 1;
+                self.peak = self.peak.max(self.held);
                 self.state[ti] = TileState::Loading;
                 if counted {
                     self.counters.accesses += 1;

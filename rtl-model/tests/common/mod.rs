@@ -19,7 +19,7 @@ use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::hw_reference::HwReference;
 use postwarp_rtl::mem::MemPort;
 use postwarp_rtl::schedule::{FetchInterval, Schedule};
-use postwarp_rtl::traversal::reverse_lines;
+use postwarp_rtl::traversal::warp_lines;
 use postwarp_rtl::units::fetch::{FetchPorts, FetchStage, SourceCache};
 use postwarp_rtl::units::transform::{InFlightSample, TransformStage, TransformUnit};
 use postwarp_rtl::units::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
@@ -99,7 +99,7 @@ impl Warp {
         let r = HwReference::new(img, &cfg);
         let setup = WarpSetup::new(&src, &dst);
         let tu = TransformUnit::new(setup, src, dst, vec![src.pose.position], 0, cfg.better_margin);
-        let lines = reverse_lines(w, h, &setup.epipole_reference);
+        let lines = warp_lines(w, h, &setup.epipole_reference);
         let sched = Schedule::new(&r.samples, &r.depth, &setup, lines, (w, h), cfg.tile_size);
         Warp { cfg, src, dst, r, tu, sched }
     }
