@@ -153,3 +153,22 @@ fn fetch_waits_for_blocks_are_counted_through_skipped_cycles() {
     assert!(wait <= fetch.stall + fetch.busy, "{wait} > {fetch:?}");
     assert!(wait * 10 >= fetch.stall * 9, "block waits {wait} are most of the fetch stalls {}", fetch.stall);
 }
+
+/// Traversal rule 6 (`docs/units.md`, "Sweeps and the destination cache"):
+/// with the epipoles outside the images, the fill follows the warp's
+/// sweep, so a warp holds a band of the frame, not a sheet of it. On the
+/// bundled room frames 1–5 (two sheets split at the epipole's row) the
+/// peak is 71–88 of 768 tiles; visiting the sheets one after the other
+/// held a whole sheet (on the 640x480 room, 4600–4900 of 19200 tiles).
+#[test]
+fn with_the_epipole_outside_the_image_a_warp_holds_a_band_not_a_sheet() {
+    for k in 1..6 {
+        let (cmd, imgs) = room_frame(k);
+        let cfg = whole_frame_cache(&cmd);
+        let n = tiles_of(&cmd, &cfg);
+        let out = run(&cfg, &cmd, &imgs);
+        for (warp, &peak) in out.stats.peak_tiles.iter().enumerate() {
+            assert!(peak > 0 && peak * 100 <= n * 15, "frame {k} warp {warp}: peak {peak} of {n} tiles");
+        }
+    }
+}
