@@ -45,6 +45,20 @@ fn with_the_working_set_on_chip_each_tile_moves_once_per_warp() {
     assert_eq!(s.tile_evictions, vec![n; cmd.warps.len()], "one eviction per tile per warp");
     assert_eq!((s.dest_cache.misses_capacity, s.dest_cache.spills), (0, 0));
     assert_eq!(s.dest_cache.misses_compulsory, n * cmd.warps.len() as u64);
+    // Without spills the destination traffic is its analytic floor, the
+    // frame in A-buffer format once per warp, up to burst rounding.
+    let floor: u64 = s.dest_packed_bytes.iter().sum();
+    let written = s.dram.client_bytes_written[Client::TileWriteBack.index()];
+    assert!(
+        floor > 0 && written >= floor && written <= floor + n * cmd.warps.len() as u64 * 32,
+        "{written} vs {floor}"
+    );
+    let read = s.dram.client_bytes_read[Client::TileFill.index()];
+    assert!(
+        read >= s.dest_packed_bytes[0] && read <= s.dest_packed_bytes[0] + n * 32,
+        "{read} vs {:?}",
+        s.dest_packed_bytes
+    );
 }
 
 #[test]

@@ -167,6 +167,8 @@ impl Engine {
         for (j, (warp, r)) in cmd.warps.iter().zip(refs).enumerate() {
             let tu = TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
             m.run_warp(&mut f, &WarpInput { tu: &tu, r, number: j, dst }, &mut self.buffer);
+            m.stats.reference_packed_bytes += r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
+            m.stats.dest_packed_bytes.push(m.cache.packed_bytes().iter().sum());
         }
         m.display_read();
         let mut stats = m.stats;
@@ -176,6 +178,7 @@ impl Engine {
         stats.dest_cache = m.cache.tags().counters.clone();
         stats.fragments_per_pixel = m.ab.fragments_per_pixel.clone();
         stats.forced_merges = m.ab.forced_merges;
+        stats.display_pixels = (dw / cfg.supersample) as u64 * (dh / cfg.supersample) as u64;
         stats.hole_samples = f.hole.count_ones() as u64;
         stats.empty_samples = (0..f.len()).filter(|&i| !f.real[i] && !f.hole[i]).count() as u64;
         let timeline = m.timeline.take().map(|mut t| {

@@ -50,6 +50,14 @@ pub struct FrameStats {
     pub peak_tiles: Vec<u64>,
     /// Destination tiles released and written back, per reference warp (tiles).
     pub tile_evictions: Vec<u64>,
+    /// Pixels of the derived frame (pixels).
+    pub display_pixels: u64,
+    /// The references' size in memory (A-buffer format), summed over the
+    /// warps: the reference fetch's floor (bytes).
+    pub reference_packed_bytes: u64,
+    /// The derived frame's size in memory (A-buffer format) after each
+    /// warp's write-back, per reference warp (bytes).
+    pub dest_packed_bytes: Vec<u64>,
     /// Reference samples streamed to the transform unit, over all warps (samples).
     pub samples_transformed: u64,
     /// Reference samples behind the derived camera (samples).
@@ -112,6 +120,17 @@ pub const FRAME_STATS: &[StatDef] = &[
         "peak_tiles.<warp>",
         "tiles",
         "most destination tiles held in the cache at once (resident or loading) in one warp",
+    ),
+    StatDef::counter("display_pixels", "pixels", "pixels of the derived frame"),
+    StatDef::counter(
+        "reference_packed_bytes",
+        "bytes",
+        "the references' size in A-buffer format, summed over the warps",
+    ),
+    StatDef::counter(
+        "dest_packed_bytes.<warp>",
+        "bytes",
+        "the derived frame's size in A-buffer format after one warp's write-back",
     ),
     StatDef::counter("tile_evictions.<warp>", "tiles", "destination tiles released and written back in one warp"),
     StatDef::counter("samples_transformed", "samples", "reference samples streamed to the transform unit"),
@@ -194,6 +213,11 @@ impl FrameStats {
         }
         for (warp, &n) in self.peak_tiles.iter().enumerate() {
             put(format!("peak_tiles.{warp}"), n);
+        }
+        put("display_pixels".into(), self.display_pixels);
+        put("reference_packed_bytes".into(), self.reference_packed_bytes);
+        for (warp, &n) in self.dest_packed_bytes.iter().enumerate() {
+            put(format!("dest_packed_bytes.{warp}"), n);
         }
         for (warp, &n) in self.tile_evictions.iter().enumerate() {
             put(format!("tile_evictions.{warp}"), n);

@@ -181,6 +181,15 @@ pub struct HwCounters<N> {
     /// Most destination tiles held at once, per reference warp (tiles).
     #[serde(default)]
     pub peak_tiles: Vec<N>,
+    /// Pixels of the derived frame (pixels).
+    #[serde(default)]
+    pub display_pixels: N,
+    /// The references' size in A-buffer format, summed over the warps (bytes).
+    #[serde(default)]
+    pub reference_packed_bytes: N,
+    /// The derived frame's size in A-buffer format after each warp (bytes).
+    #[serde(default)]
+    pub dest_packed_bytes: Vec<N>,
     /// Rectangles by drawn size `"WxH"` (rectangles).
     pub rects_by_size: BTreeMap<String, N>,
     /// Rectangles rasterized (rectangles).
@@ -262,6 +271,9 @@ impl HwCounters<u64> {
             tile_loads: s.tile_loads.clone(),
             tile_evictions: s.tile_evictions.clone(),
             peak_tiles: s.peak_tiles.clone(),
+            display_pixels: s.display_pixels,
+            reference_packed_bytes: s.reference_packed_bytes,
+            dest_packed_bytes: s.dest_packed_bytes.clone(),
             rects: rects_by_size.values().sum(),
             rects_by_size,
             kernels: s.kernels,
@@ -316,6 +328,14 @@ pub struct HwRates {
     pub dram_utilisation: Option<f64>,
     /// Destination-cache hits over accesses (fraction).
     pub dest_cache_hit_rate: Option<f64>,
+    /// DRAM bytes per pixel of the derived frame, per client, read + write
+    /// (bytes/pixel).
+    pub bytes_per_display_pixel: Option<ByClient<f64>>,
+    /// The analytic floor of the same (`docs/warper-reference.md` §5):
+    /// each reference read once in A-buffer format, the derived frame read
+    /// before every warp but the first and written after each in A-buffer
+    /// format, the display reading the last (bytes/pixel).
+    pub floor_bytes_per_display_pixel: Option<ByClient<f64>>,
 }
 
 fn ratio(a: f64, b: f64) -> Option<f64> {
@@ -343,6 +363,26 @@ impl HwRates {
             },
             dram_utilisation: ratio(bytes, c.cycles * cfg.dram_peak_bytes_per_cycle as f64),
             dest_cache_hit_rate: ratio(c.dest_cache.hits, c.dest_cache.accesses),
+            bytes_per_display_pixel: (c.display_pixels > 0.0).then(|| {
+                let b = &c.dram_bytes_by_client;
+                let per = |rw: &ReadWrite<f64>| (rw.read + rw.write) / c.display_pixels;
+                ByClient {
+                    reference_fetch: per(&b.reference_fetch),
+                    tile_fill: per(&b.tile_fill),
+                    tile_write_back: per(&b.tile_write_back),
+                    output: per(&b.output),
+                }
+            }),
+            floor_bytes_per_display_pixel: (c.display_pixels > 0.0 && !c.dest_packed_bytes.is_empty()).then(|| {
+                let d = &c.dest_packed_bytes;
+                let all: f64 = d.iter().sum();
+                ByClient {
+                    reference_fetch: c.reference_packed_bytes / c.display_pixels,
+                    tile_fill: (all - d[d.len() - 1]) / c.display_pixels,
+                    tile_write_back: all / c.display_pixels,
+                    output: d[d.len() - 1] / c.display_pixels,
+                }
+            }),
         }
     }
 }
@@ -524,6 +564,19 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             meaning: "per reference warp: the most destination tiles held in the cache at once (resident or loading); \
                       the warp's working set when the cache is large enough not to spill",
         },
+        scalar("display_pixels", "pixels", Reduce::Sum, "pixels of the derived frame"),
+        scalar(
+            "reference_packed_bytes",
+            "bytes",
+            Reduce::Sum,
+            "the references' size in A-buffer format, summed over the warps (the reference fetch's floor; culling \
+             off-screen lines can read less)",
+        ),
+        list(
+            "dest_packed_bytes",
+            "bytes",
+            "per reference warp: the derived frame's size in A-buffer format after the warp's write-back",
+        ),
         KeyDoc {
             key: "rects_by_size",
             unit: "rectangles",
@@ -628,7 +681,26 @@ pub fn rate_keys() -> Vec<KeyDoc> {
             Reduce::Derived,
             "`dest_cache.hits / dest_cache.accesses` (`null` without accesses; report version 1: `dest_cache.hit_rate`)",
         ),
+        nested(
+            "bytes_per_display_pixel",
+            Reduce::Derived,
+            by_client_bytes_per_pixel_keys,
+            "per DRAM client, `(read + write) / display_pixels` (`null` without pixels)",
+        ),
+        nested(
+            "floor_bytes_per_display_pixel",
+            Reduce::Derived,
+            by_client_bytes_per_pixel_keys,
+            "the analytic floor per client (`docs/warper-reference.md` §5): `reference_packed_bytes`, the derived \
+             frame before every warp but the first (`dest_packed_bytes` but the last), after every warp (all of \
+             `dest_packed_bytes`), and the display's read of the last, each over `display_pixels`; bursts not \
+             rounded, so a run without spills can sit a little above it, and culling can read references below it",
+        ),
     ]
+}
+
+fn by_client_bytes_per_pixel_keys() -> Vec<KeyDoc> {
+    by_client_bytes_keys().into_iter().map(|k| scalar(k.key, "bytes/pixel", Reduce::Derived, k.meaning)).collect()
 }
 
 #[cfg(test)]
@@ -654,7 +726,12 @@ mod tests {
     fn every_field_has_a_row() {
         let c = HwCounters::of(&FrameStats::default());
         same_keys(&serde_json::to_value(&c).unwrap(), &counter_keys(), "counters");
-        same_keys(&serde_json::to_value(HwRates::default()).unwrap(), &rate_keys(), "rates");
+        let rates = HwRates {
+            bytes_per_display_pixel: Some(ByClient::default()),
+            floor_bytes_per_display_pixel: Some(ByClient::default()),
+            ..HwRates::default()
+        };
+        same_keys(&serde_json::to_value(rates).unwrap(), &rate_keys(), "rates");
         assert!(find(&counter_keys(), "kernels_over_limit").is_some());
     }
 
@@ -672,6 +749,15 @@ mod tests {
         assert_eq!(r.dram_gbps_by_client.tile_fill, r.dram_gbps_at_target_rate);
         assert_eq!(r.dram_utilisation, Some(8000.0 / (1000.0 * 16.0)));
         assert_eq!(r.dest_cache_hit_rate, Some(0.75));
+        assert_eq!((r.bytes_per_display_pixel, r.floor_bytes_per_display_pixel), (None, None), "no pixels");
+        c.display_pixels = 100;
+        c.reference_packed_bytes = 3000;
+        c.dest_packed_bytes = vec![1000, 1500];
+        let r = HwRates::of(&c.as_f64(), &cfg);
+        let b = r.bytes_per_display_pixel.unwrap();
+        assert_eq!((b.tile_fill, b.reference_fetch), (80.0, 0.0));
+        let f = r.floor_bytes_per_display_pixel.unwrap();
+        assert_eq!((f.reference_fetch, f.tile_fill, f.tile_write_back, f.output), (30.0, 10.0, 25.0, 15.0));
         assert_eq!(HwRates::of(&HwCounters::default(), &cfg).frame_rate_at_clock_hz, None);
     }
 }

@@ -33,7 +33,7 @@ use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
 use crate::metrics::psnr::psnr_rgb;
 use crate::picture::{to_srgb8, write_png};
 use crate::report::SimulateReport;
-use crate::report::hardware::{HwCounters, HwRates};
+use crate::report::hardware::{ByClient, HwCounters, HwRates};
 use crate::report::quality::Truth;
 use crate::report::simulate::{HwFrame, VsGolden};
 use crate::report::timeline::{TimelineMeta, chrome_trace};
@@ -223,7 +223,7 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         "wr_MB",
         "GB/s@tgt",
         "dram%",
-        "dc_hit%",
+        "B/px",
         "dc_cmp",
         "dc_cap",
         "=golden",
@@ -242,7 +242,7 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
             c.dram_write_bytes as f64 / 1e6,
             f.rates.dram_gbps_at_target_rate,
             opt(f.rates.dram_utilisation, 100.0),
-            opt(f.rates.dest_cache_hit_rate, 100.0),
+            bytes_per_pixel(&f.rates),
             c.dest_cache.misses_compulsory,
             c.dest_cache.misses_capacity,
             if f.vs_golden.identical { "yes".to_string() } else { format!("no ({})", f.vs_golden.differing_samples) },
@@ -260,7 +260,7 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         m.counters.dram_write_bytes / 1e6,
         m.rates.dram_gbps_at_target_rate,
         opt(m.rates.dram_utilisation, 100.0),
-        opt(m.rates.dest_cache_hit_rate, 100.0),
+        bytes_per_pixel(&m.rates),
         m.counters.dest_cache.misses_compulsory,
         m.counters.dest_cache.misses_capacity,
         format!("{}/{}", r.total.identical_frames, r.total.frames),
@@ -272,7 +272,30 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     }
     let _ =
         writeln!(s, "; utilisation {:.2} % of the peak over the frame's cycles", opt(m.rates.dram_utilisation, 100.0));
+    if let (Some(b), Some(fl)) = (&m.rates.bytes_per_display_pixel, &m.rates.floor_bytes_per_display_pixel) {
+        let _ = write!(s, "bytes per display pixel (mean), each with its floor:");
+        for (i, ((name, v), (_, f))) in b.iter().into_iter().zip(fl.iter()).enumerate() {
+            let _ = write!(s, "{} {name} {v:.1} ({f:.1})", if i == 0 { "" } else { " +" });
+        }
+        let total = |c: &ByClient<f64>| c.iter().into_iter().map(|(_, v)| v).sum::<f64>();
+        let _ = writeln!(s, " = {:.1} ({:.1})", total(b), total(fl));
+    }
+    let peak = r.frames.iter().flat_map(|f| f.counters.peak_tiles.iter().copied()).max().unwrap_or(0);
+    let tile_bytes = (cfg.tile_size as u64).pow(2) * postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;
+    let _ = writeln!(
+        s,
+        "destination cache: peak {peak} tiles held ({:.0} KiB) of {} ({} KiB); capacity misses {} over the frames",
+        (peak * tile_bytes) as f64 / 1024.0,
+        cfg.dest_cache_bytes / tile_bytes,
+        cfg.dest_cache_bytes / 1024,
+        r.total.counters.dest_cache.misses_capacity,
+    );
     s
+}
+
+/// Total DRAM bytes per display pixel of `r`, NaN without pixels.
+fn bytes_per_pixel(r: &HwRates) -> f64 {
+    r.bytes_per_display_pixel.as_ref().map_or(f64::NAN, |b| b.iter().into_iter().map(|(_, v)| v).sum())
 }
 
 /// The configuration's name: the preset it equals, or "custom" with the
