@@ -372,6 +372,8 @@ struct WarpPlan {
     sched: Schedule,
     fill: HoleFillUnit,
     releases: Vec<(u64, u32)>,
+    /// The §5 model's working set for this warp.
+    working_set: crate::working_set::WorkingSet,
 }
 
 impl WarpPlan {
@@ -387,7 +389,16 @@ impl WarpPlan {
         let epipole: Epipole = w.tu.setup.epipole_derived;
         let fill = HoleFillUnit::new(dw, dh, &epipole, params);
         let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &HoleFillUnit::tap_offsets(&params));
-        WarpPlan { sched, fill, releases }
+        let working_set = crate::working_set::predict(
+            &w.tu.setup,
+            (&w.tu.reference_camera(), &w.dst),
+            (img.width, img.height),
+            &w.r.depth,
+            fill.lines(),
+            cfg.kernel_limit,
+            cfg.tile_size,
+        );
+        WarpPlan { sched, fill, releases, working_set }
     }
 }
 
@@ -500,6 +511,7 @@ impl<'s> Pipeline<'s> {
         s.dead_lines += plan.sched.live.len() as u64 - live;
         s.tile_loads.push(m.cache.loads());
         s.peak_tiles.push(m.cache.tags().peak() as u64);
+        s.ws_model_tiles.push(plan.working_set.tiles);
         let (evictions, ab) = self.packer.counts();
         s.tile_evictions.push(evictions);
         m.ab.add(ab);

@@ -50,6 +50,9 @@ pub struct FrameStats {
     pub peak_tiles: Vec<u64>,
     /// Destination tiles released and written back, per reference warp (tiles).
     pub tile_evictions: Vec<u64>,
+    /// The working-set model's prediction (`docs/warper-reference.md` §5,
+    /// [`crate::working_set`]), per reference warp (tiles).
+    pub ws_model_tiles: Vec<u64>,
     /// Pixels of the derived frame (pixels).
     pub display_pixels: u64,
     /// The references' size in memory (A-buffer format), summed over the
@@ -120,6 +123,11 @@ pub const FRAME_STATS: &[StatDef] = &[
         "peak_tiles.<warp>",
         "tiles",
         "most destination tiles held in the cache at once (resident or loading) in one warp",
+    ),
+    StatDef::counter(
+        "ws_model_tiles.<warp>",
+        "tiles",
+        "the working-set model's prediction for one warp (docs/warper-reference.md §5)",
     ),
     StatDef::counter("display_pixels", "pixels", "pixels of the derived frame"),
     StatDef::counter(
@@ -213,6 +221,9 @@ impl FrameStats {
         }
         for (warp, &n) in self.peak_tiles.iter().enumerate() {
             put(format!("peak_tiles.{warp}"), n);
+        }
+        for (warp, &n) in self.ws_model_tiles.iter().enumerate() {
+            put(format!("ws_model_tiles.{warp}"), n);
         }
         put("display_pixels".into(), self.display_pixels);
         put("reference_packed_bytes".into(), self.reference_packed_bytes);

@@ -28,6 +28,7 @@ pub mod stats;
 pub mod timeline;
 pub mod traversal;
 pub mod units;
+pub mod working_set;
 
 pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
 pub use cmd::{FrameCommands, ReferenceWarp};

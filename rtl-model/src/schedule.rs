@@ -81,6 +81,13 @@ impl CoarseDepth {
         CoarseDepth { bw, bh, lo, hi }
     }
 
+    /// 1/Z range over the whole reference (`None`: no surface).
+    pub fn overall(&self) -> Option<(f64, f64)> {
+        let lo = self.lo.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = self.hi.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        (lo <= hi).then_some((lo, hi))
+    }
+
     /// 1/Z range over the blocks touching samples `[x0, x1] x [y0, y1]`.
     fn range(&self, x0: u32, x1: u32, y0: u32, y1: u32) -> (f64, f64) {
         let (mut l, mut u) = (f64::INFINITY, f64::NEG_INFINITY);

@@ -181,6 +181,9 @@ pub struct HwCounters<N> {
     /// Most destination tiles held at once, per reference warp (tiles).
     #[serde(default)]
     pub peak_tiles: Vec<N>,
+    /// The working-set model's prediction per reference warp (tiles).
+    #[serde(default)]
+    pub ws_model_tiles: Vec<N>,
     /// Pixels of the derived frame (pixels).
     #[serde(default)]
     pub display_pixels: N,
@@ -271,6 +274,7 @@ impl HwCounters<u64> {
             tile_loads: s.tile_loads.clone(),
             tile_evictions: s.tile_evictions.clone(),
             peak_tiles: s.peak_tiles.clone(),
+            ws_model_tiles: s.ws_model_tiles.clone(),
             display_pixels: s.display_pixels,
             reference_packed_bytes: s.reference_packed_bytes,
             dest_packed_bytes: s.dest_packed_bytes.clone(),
@@ -328,6 +332,9 @@ pub struct HwRates {
     pub dram_utilisation: Option<f64>,
     /// Destination-cache hits over accesses (fraction).
     pub dest_cache_hit_rate: Option<f64>,
+    /// The largest, over the warps, of peak destination tiles over the
+    /// working-set model's prediction (ratio).
+    pub peak_over_ws_model: Option<f64>,
     /// DRAM bytes per pixel of the derived frame, per client, read + write
     /// (bytes/pixel).
     pub bytes_per_display_pixel: Option<ByClient<f64>>,
@@ -363,6 +370,12 @@ impl HwRates {
             },
             dram_utilisation: ratio(bytes, c.cycles * cfg.dram_peak_bytes_per_cycle as f64),
             dest_cache_hit_rate: ratio(c.dest_cache.hits, c.dest_cache.accesses),
+            peak_over_ws_model: c
+                .peak_tiles
+                .iter()
+                .zip(&c.ws_model_tiles)
+                .filter_map(|(&p, &m)| ratio(p, m))
+                .fold(None, |a: Option<f64>, r| Some(a.map_or(r, |a| a.max(r)))),
             bytes_per_display_pixel: (c.display_pixels > 0.0).then(|| {
                 let b = &c.dram_bytes_by_client;
                 let per = |rw: &ReadWrite<f64>| (rw.read + rw.write) / c.display_pixels;
@@ -564,6 +577,14 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             meaning: "per reference warp: the most destination tiles held in the cache at once (resident or loading); \
                       the warp's working set when the cache is large enough not to spill",
         },
+        KeyDoc {
+            key: "ws_model_tiles",
+            unit: "tiles",
+            reduce: Reduce::Max,
+            shape: Shape::List,
+            meaning: "per reference warp: the working-set model of `docs/warper-reference.md` §5 with this warp's sweep \
+                      width, roll and parallax spread (`rtl-model/src/working_set.rs`)",
+        },
         scalar("display_pixels", "pixels", Reduce::Sum, "pixels of the derived frame"),
         scalar(
             "reference_packed_bytes",
@@ -680,6 +701,13 @@ pub fn rate_keys() -> Vec<KeyDoc> {
             "fraction",
             Reduce::Derived,
             "`dest_cache.hits / dest_cache.accesses` (`null` without accesses; report version 1: `dest_cache.hit_rate`)",
+        ),
+        scalar(
+            "peak_over_ws_model",
+            "ratio",
+            Reduce::Derived,
+            "the largest over the warps of `peak_tiles / ws_model_tiles` (`null` without a prediction); about 1 when \
+             the §5 model holds, far above it when the fill waits (an epipole inside the image)",
         ),
         nested(
             "bytes_per_display_pixel",

@@ -282,9 +282,12 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     }
     let peak = r.frames.iter().flat_map(|f| f.counters.peak_tiles.iter().copied()).max().unwrap_or(0);
     let tile_bytes = (cfg.tile_size as u64).pow(2) * postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;
+    let model = r.frames.iter().flat_map(|f| f.counters.ws_model_tiles.iter().copied()).max().unwrap_or(0);
+    let ratio = r.frames.iter().filter_map(|f| f.rates.peak_over_ws_model).fold(f64::NAN, f64::max);
     let _ = writeln!(
         s,
-        "destination cache: peak {peak} tiles held ({:.0} KiB) of {} ({} KiB); capacity misses {} over the frames",
+        "destination cache: peak {peak} tiles held ({:.0} KiB) of {} ({} KiB); working-set model up to {model} tiles, \
+         peak / model up to {ratio:.2}; capacity misses {} over the frames",
         (peak * tile_bytes) as f64 / 1024.0,
         cfg.dest_cache_bytes / tile_bytes,
         cfg.dest_cache_bytes / 1024,

@@ -86,6 +86,11 @@ fn ray_len_sq(dx: f64, dy: f64, inv_f: (f64, f64)) -> f64 {
 }
 
 impl TransformUnit {
+    /// The reference camera (pixels).
+    pub fn reference_camera(&self) -> Camera {
+        self.src
+    }
+
     /// Load the unit for the warp `setup` from `src` to `dst` (sample
     /// grids); `centres` are all references' centres in warp order, `this`
     /// is ours; `better_margin` as in rule 4.
