@@ -145,8 +145,14 @@ pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> Prep
     let mut abuffer = AbufferStats::default();
     let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
     let blocks = cull::block_depth(&samples);
-    let inv_z = (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
+    let inv_z = inv_z_plane(&samples);
     PreparedReference { samples, abuffer, blocks, inv_z }
+}
+
+/// The 1/Z plane of a reference: `1/Z` where valid, 0 elsewhere (made
+/// once per reference: every derived frame it serves reads it).
+pub fn inv_z_plane(img: &SampleImage) -> Vec<f64> {
+    (0..img.len()).map(|i| if img.valid[i] { 1.0 / img.z[i] as f64 } else { 0.0 }).collect()
 }
 
 /// Produce derived frame `cmd` from its prepared references (`refs[j]` for
