@@ -13,6 +13,7 @@ use super::raster::rect;
 use super::transform::{BATCH, SampleBatch, Transformed, WarpContext};
 use super::traversal::OrderKey;
 use glam::DVec2;
+use postwarp_rtl::SampleImage;
 
 /// A kernel ready to draw, kept small (24 bytes: phase B reads it from
 /// memory): the rest of its candidate is read from the reference, its
@@ -39,8 +40,7 @@ const UNKNOWN: u16 = u16::MAX;
 /// that a run does not page-fault fresh memory for every warp.
 #[derive(Default)]
 pub(super) struct Scratch {
-    warped: Vec<Option<Transformed>>,
-    groups: Vec<(GroupState, DVec2)>,
+    rows: Rows,
     kernels: Vec<Kernel>,
     /// Per derived sample: its only candidate kernel so far, [`EMPTY`] or
     /// [`MULTI`].
@@ -56,6 +56,63 @@ const EMPTY: u32 = u32::MAX;
 /// overflow list.
 const MULTI: u32 = u32::MAX - 1;
 
+/// The live region plus its one-sample ring, inclusive (reference samples).
+#[derive(Clone, Copy, Debug)]
+struct Region {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+impl Region {
+    /// Columns.
+    fn width(&self) -> usize {
+        (self.x1 - self.x0 + 1) as usize
+    }
+}
+
+/// One row of warped samples over the region's columns, one array per
+/// term (`ok`: a surface, warped in front of the derived camera).
+#[derive(Default)]
+struct WarpedRow {
+    px: Vec<f64>,
+    py: Vec<f64>,
+    inv_z: Vec<f64>,
+    e: Vec<f64>,
+    ok: Vec<bool>,
+}
+
+impl WarpedRow {
+    fn resize(&mut self, n: usize) {
+        for v in [&mut self.px, &mut self.py, &mut self.inv_z, &mut self.e] {
+            v.resize(n, 0.0);
+        }
+        self.ok.resize(n, false);
+    }
+
+    /// Column `k`'s warp, `None` if not `ok`.
+    #[inline(always)]
+    fn at(&self, k: usize) -> Option<Transformed> {
+        self.ok[k].then(|| Transformed { pos: DVec2::new(self.px[k], self.py[k]), inv_z: self.inv_z[k], e: self.e[k] })
+    }
+}
+
+/// One row of 2x2 groups (top-left sample in this row) over the region's
+/// columns: state and shared corner.
+#[derive(Default)]
+struct GroupRow {
+    groups: Vec<(GroupState, DVec2)>,
+}
+
+/// The rows phases 1–3 work on: warped rows y − 1, y, y + 1 and group rows
+/// y − 1, y, each at index `(row − region.y0) mod 3` (mod 2 for groups).
+#[derive(Default)]
+pub(super) struct Rows {
+    warped: [WarpedRow; 3],
+    groups: [GroupRow; 2],
+}
+
 /// Warp one reference into `d` (rules 2, 4 and 5).
 pub(super) fn warp_reference(
     ctx: &WarpContext,
@@ -66,112 +123,61 @@ pub(super) fn warp_reference(
     st: &mut GoldenStats,
     scratch: &mut Scratch,
 ) {
-    let Scratch { warped, groups, kernels, slots, overflow } = scratch;
+    let Scratch { rows, kernels, slots, overflow } = scratch;
     let img = &prepared.samples;
     let (w, h) = (img.width, img.height);
     st.reference_samples += img.valid.count_ones() as u64;
     let live = cull::live_blocks(ctx, &prepared.blocks, d.width, d.height);
     let Some((rx0, ry0, rx1, ry1)) = live.bounds(w, h) else { return };
     // The live region plus its one-sample ring (neighbours of live samples).
-    let (qx0, qy0) = (rx0.saturating_sub(1), ry0.saturating_sub(1));
-    let (qx1, qy1) = ((rx1 + 1).min(w - 1), (ry1 + 1).min(h - 1));
-    let qw = (qx1 - qx0 + 1) as usize;
-    let qi = |x: u32, y: u32| (y - qy0) as usize * qw + (x - qx0) as usize;
-    warped.clear();
-    warped.reserve(qw * (qy1 - qy0 + 1) as usize);
-    let mut out = [[0.0; 4]; BATCH];
-    let mut ok = [false; BATCH];
-    for y in qy0..=qy1 {
-        // A batch of samples at a time (the transform's loop vectorises).
-        for x in (qx0..=qx1).step_by(BATCH) {
-            let n = ((qx1 - x + 1) as usize).min(BATCH);
-            let i0 = img.index(x, y);
-            ctx.transform_batch(x as f64, y as f64, &prepared.inv_z[i0..i0 + n], &mut out[..n], &mut ok[..n]);
-            for k in 0..n {
-                let valid = img.valid[i0 + k];
-                let [px, py, inv_z, e] = out[k];
-                let t = (valid && ok[k]).then_some(Transformed { pos: DVec2::new(px, py), inv_z, e });
-                st.culled_samples += (valid && t.is_none()) as u64;
-                warped.push(t);
-            }
-        }
-    }
-    // Samples outside the region are in culled blocks, where W > 0 (cull.rs).
-    let at = |x: u32, y: u32| warped[qi(x, y)];
-    groups.clear();
-    groups.reserve(qw * (qy1 - qy0 + 1) as usize);
-    for gy in qy0..=qy1 {
-        for gx in qx0..=qx1 {
-            groups.push(if gx < qx1 && gy < qy1 {
-                group(at, gx, gy, cfg.threshold)
-            } else {
-                (GroupState::Missing, DVec2::ZERO)
-            });
-        }
-    }
-    let group_at = |gx: u32, gy: u32| groups[qi(gx, gy)];
+    // Samples outside it are in culled blocks, where W > 0 (cull.rs).
+    let q = Region {
+        x0: rx0.saturating_sub(1),
+        y0: ry0.saturating_sub(1),
+        x1: (rx1 + 1).min(w - 1),
+        y1: (ry1 + 1).min(h - 1),
+    };
     let keys = OrderKey::new(w, h, &ctx.setup.epipole_reference);
     let reverse = cfg.warp_order == WarpOrder::Reverse;
-    let size = (d.width, d.height);
 
-    // Phase A, raster order: every kernel that reaches the derived image.
+    // Phases 1–3 a row at a time: the transform of row y + 1, the groups of
+    // row y (warped rows y and y + 1), then phase A on row y (group rows
+    // y − 1 and y, warped rows y − 1 to y + 1). Each is a loop of its own
+    // over a row (the transform's vectorises), and the rows stay in cache.
+    for r in rows.warped.iter_mut() {
+        r.resize(q.width());
+    }
+    for g in rows.groups.iter_mut() {
+        g.groups.resize(q.width(), (GroupState::Missing, DVec2::ZERO));
+    }
     kernels.clear();
     slots.clear();
     slots.resize(d.len(), EMPTY);
     overflow.clear();
-    for y in ry0..=ry1 {
-        for x in rx0..=rx1 {
-            if !live.sample_live(x, y) {
-                continue;
-            }
-            let Some(t) = at(x, y) else { continue };
-            let (c, edges) = corners(ctx, img, &t, group_at, x, y);
-            let (x0, x1, y0, y1) = bounding_box(&c);
-            let r = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, size);
-            if r.x.0 > r.x.1 || r.y.0 > r.y.1 {
-                continue;
-            }
-            let (kw, kh) = (r.size.0 as usize, r.size.1 as usize);
-            st.kernel_sizes[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
-            st.kernels_over_limit += r.over_limit as u64;
-            st.edge_corners += edges as u64;
-            if x + 1 < w && y + 1 < h {
-                match group_at(x, y).0 {
-                    GroupState::Discontinuous => st.discontinuous_groups += 1,
-                    GroupState::Folded => st.folded_groups += 1,
-                    _ => {}
-                }
-            }
-            let fill = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
-                Some(k) => {
-                    st.forward_edges += 1;
-                    let (nx, ny) = ((k % w as usize) as i64, (k / w as usize) as i64);
-                    [(nx - x as i64) as i8, (ny - y as i64) as i8]
-                }
-                None => [0, 0],
-            };
-            let k = kernels.len() as u32;
-            debug_assert!(k < MULTI);
-            r.for_each(|sx, sy| {
-                let s = (sy * d.width + sx) as usize;
-                match slots[s] {
-                    EMPTY => slots[s] = k,
-                    MULTI => overflow.push(((s as u64) << 32) | k as u64),
-                    first => {
-                        overflow.push(((s as u64) << 32) | first as u64);
-                        overflow.push(((s as u64) << 32) | k as u64);
-                        slots[s] = MULTI;
-                    }
-                }
-            });
-            kernels.push(Kernel {
-                x,
-                y,
-                inv_z: t.inv_z as f32,
-                slopes: [0.0; 2],                      // set below, in a pass of their own
-                better: std::cell::Cell::new(UNKNOWN), // below or on demand
-                fill,
-            });
+    let mut hist = [[0u64; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1];
+    transform_row(ctx, prepared, &q, q.y0, &mut rows.warped[0], st);
+    if q.y0 < q.y1 {
+        transform_row(ctx, prepared, &q, q.y0 + 1, &mut rows.warped[1], st);
+    }
+    let phase_a = PhaseA { ctx, img, cfg, q, live: &live, size: (d.width, d.height) };
+    for y in q.y0..=q.y1 {
+        let r = (y - q.y0) as usize;
+        if y < q.y1 {
+            let [a, b] = [&rows.warped[r % 3], &rows.warped[(r + 1) % 3]];
+            group_row(a, b, cfg.threshold, &mut rows.groups[r % 2]);
+        } else {
+            rows.groups[r % 2].groups.fill((GroupState::Missing, DVec2::ZERO));
+        }
+        if (ry0..=ry1).contains(&y) {
+            phase_a.row(y, rows, kernels, slots, overflow, &mut hist, st);
+        }
+        if y + 2 <= q.y1 {
+            transform_row(ctx, prepared, &q, y + 2, &mut rows.warped[(r + 2) % 3], st);
+        }
+    }
+    for (a, b) in st.kernel_sizes.iter_mut().zip(&hist) {
+        for (a, b) in a.iter_mut().zip(b) {
+            *a += b;
         }
     }
 
@@ -254,6 +260,150 @@ pub(super) fn warp_reference(
                 }
             }
             k => draw(d, s, &kernels[k as usize]),
+        }
+    }
+}
+
+/// Phase 1 on row `y` of the region: warp its samples into `out`, counting
+/// the culled ones (a surface behind the derived camera or not finite).
+fn transform_row(
+    ctx: &WarpContext,
+    prepared: &PreparedReference,
+    q: &Region,
+    y: u32,
+    out: &mut WarpedRow,
+    st: &mut GoldenStats,
+) {
+    let img = &prepared.samples;
+    let i0 = img.index(q.x0, y);
+    let n = q.width();
+    let mut batch = [[0.0; 4]; BATCH];
+    let mut ok = [false; BATCH];
+    for c in (0..n).step_by(BATCH) {
+        let m = (n - c).min(BATCH);
+        let i = i0 + c;
+        // A batch at a time (the transform's loop vectorises).
+        ctx.transform_batch(
+            (q.x0 as usize + c) as f64,
+            y as f64,
+            &prepared.inv_z[i..i + m],
+            &mut batch[..m],
+            &mut ok[..m],
+        );
+        let valid = &img.valid[i..i + m];
+        for k in 0..m {
+            let [px, py, inv_z, e] = batch[k];
+            let v = valid[k];
+            out.px[c + k] = px;
+            out.py[c + k] = py;
+            out.inv_z[c + k] = inv_z;
+            out.e[c + k] = e;
+            out.ok[c + k] = v & ok[k];
+            st.culled_samples += (v & !ok[k]) as u64;
+        }
+    }
+}
+
+/// Phase 2 on one row: the groups whose top-left samples are in warped row
+/// `a` (bottom samples in `b`); the last column has none (Missing).
+fn group_row(a: &WarpedRow, b: &WarpedRow, threshold: f64, out: &mut GroupRow) {
+    let n = out.groups.len();
+    for k in 0..n - 1 {
+        let at = |x: u32, y: u32| if y == 0 { a.at(x as usize) } else { b.at(x as usize) };
+        out.groups[k] = group(at, k as u32, 0, threshold);
+    }
+    out.groups[n - 1] = (GroupState::Missing, DVec2::ZERO);
+}
+
+/// Phase A's fixed inputs for one reference.
+struct PhaseA<'a> {
+    ctx: &'a WarpContext,
+    img: &'a SampleImage,
+    cfg: &'a GoldenConfig,
+    q: Region,
+    live: &'a cull::LiveBlocks,
+    /// Derived image size (samples).
+    size: (u32, u32),
+}
+
+impl PhaseA<'_> {
+    /// Phase A on row `y`: every kernel of a live sample that reaches the
+    /// derived image, in raster order, into `kernels` and the slots.
+    #[allow(clippy::too_many_arguments)]
+    fn row(
+        &self,
+        y: u32,
+        rows: &Rows,
+        kernels: &mut Vec<Kernel>,
+        slots: &mut [u32],
+        overflow: &mut Vec<u64>,
+        hist: &mut [[u64; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1],
+        st: &mut GoldenStats,
+    ) {
+        let (ctx, img, cfg, q) = (self.ctx, self.img, self.cfg, self.q);
+        let (w, h) = (img.width, img.height);
+        let r = (y - q.y0) as usize;
+        let warped_row = |yy: u32| &rows.warped[(yy - q.y0) as usize % 3];
+        let at = |x: u32, yy: u32| warped_row(yy).at((x - q.x0) as usize);
+        let group_at = |gx: u32, gy: u32| rows.groups[(gy - q.y0) as usize % 2].groups[(gx - q.x0) as usize];
+        let cur = &rows.warped[r % 3];
+        let dw = self.size.0;
+        let by = y / cull::BLOCK;
+        for bx in 0..self.live.bw {
+            if !self.live.live[(by * self.live.bw + bx) as usize] {
+                continue;
+            }
+            let xs = bx * cull::BLOCK..((bx + 1) * cull::BLOCK).min(w);
+            for x in xs {
+                let Some(t) = cur.at((x - q.x0) as usize) else { continue };
+                let (c, edges) = corners(ctx, img, &t, group_at, x, y);
+                let (x0, x1, y0, y1) = bounding_box(&c);
+                let rc = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size);
+                if rc.x.0 > rc.x.1 || rc.y.0 > rc.y.1 {
+                    continue;
+                }
+                let (kw, kh) = (rc.size.0 as usize, rc.size.1 as usize);
+                hist[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
+                st.kernels_over_limit += rc.over_limit as u64;
+                st.edge_corners += edges as u64;
+                if x + 1 < w && y + 1 < h {
+                    match group_at(x, y).0 {
+                        GroupState::Discontinuous => st.discontinuous_groups += 1,
+                        GroupState::Folded => st.folded_groups += 1,
+                        _ => {}
+                    }
+                }
+                let fill = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
+                    Some(k) => {
+                        st.forward_edges += 1;
+                        let (nx, ny) = ((k % w as usize) as i64, (k / w as usize) as i64);
+                        [(nx - x as i64) as i8, (ny - y as i64) as i8]
+                    }
+                    None => [0, 0],
+                };
+                let k = kernels.len() as u32;
+                debug_assert!(k < MULTI);
+                rc.for_each(|sx, sy| {
+                    let s = (sy * dw + sx) as usize;
+                    match slots[s] {
+                        EMPTY => slots[s] = k,
+                        MULTI => overflow.push(((s as u64) << 32) | k as u64),
+                        first => {
+                            overflow.push(((s as u64) << 32) | first as u64);
+                            overflow.push(((s as u64) << 32) | k as u64);
+                            slots[s] = MULTI;
+                        }
+                    }
+                });
+                kernels.push(Kernel {
+                    x,
+                    y,
+                    inv_z: t.inv_z as f32,
+                    slopes: [0.0; 2],                      // set below, in a pass of their own
+                    better: std::cell::Cell::new(UNKNOWN), // below or on demand
+                    fill,
+                });
+            }
         }
     }
 }
