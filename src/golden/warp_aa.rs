@@ -7,9 +7,9 @@ use super::composite::{Candidate, Kind, composite_with};
 use super::config::{GoldenConfig, WarpOrder};
 use super::cull;
 use super::frame::{GoldenStats, KERNEL_HIST_MAX, PreparedReference, count_outcome, forward_edge_neighbour};
-use super::kernel_setup::{GroupState, bounding_box, corners, group};
+use super::kernel_setup::{GroupState, bounding_box, corners};
 use super::planes::DestPlanes;
-use super::raster::rect;
+use super::raster::{CEIL_I32_RANGE, ceil_i32, rect, rect_of_ranges};
 use super::transform::{BATCH, SampleBatch, Transformed, WarpContext};
 use super::traversal::OrderKey;
 use glam::DVec2;
@@ -99,10 +99,37 @@ impl WarpedRow {
 }
 
 /// One row of 2x2 groups (top-left sample in this row) over the region's
-/// columns: state and shared corner.
+/// columns: state and shared corner (set only where `Shared`), and for the
+/// fast path the corner's ceilings (`fast`: shared, and the corner within
+/// [`CEIL_I32_RANGE`]; `ceil` is only meaningful there).
 #[derive(Default)]
 struct GroupRow {
-    groups: Vec<(GroupState, DVec2)>,
+    state: Vec<GroupState>,
+    cx: Vec<f64>,
+    cy: Vec<f64>,
+    fast: Vec<bool>,
+    ceil_x: Vec<i32>,
+    ceil_y: Vec<i32>,
+}
+
+impl GroupRow {
+    fn resize(&mut self, n: usize) {
+        self.state.resize(n, GroupState::Missing);
+        self.cx.resize(n, 0.0);
+        self.cy.resize(n, 0.0);
+        self.fast.resize(n, false);
+        self.ceil_x.resize(n, 0);
+        self.ceil_y.resize(n, 0);
+    }
+
+    /// Column `k`'s state and corner, as [`group`] gives them.
+    #[inline(always)]
+    fn at(&self, k: usize) -> (GroupState, DVec2) {
+        match self.state[k] {
+            GroupState::Shared => (GroupState::Shared, DVec2::new(self.cx[k], self.cy[k])),
+            s => (s, DVec2::ZERO),
+        }
+    }
 }
 
 /// The rows phases 1–3 work on: warped rows y − 1, y, y + 1 and group rows
@@ -148,7 +175,7 @@ pub(super) fn warp_reference(
         r.resize(q.width());
     }
     for g in rows.groups.iter_mut() {
-        g.groups.resize(q.width(), (GroupState::Missing, DVec2::ZERO));
+        g.resize(q.width());
     }
     kernels.clear();
     slots.clear();
@@ -166,7 +193,8 @@ pub(super) fn warp_reference(
             let [a, b] = [&rows.warped[r % 3], &rows.warped[(r + 1) % 3]];
             group_row(a, b, cfg.threshold, &mut rows.groups[r % 2]);
         } else {
-            rows.groups[r % 2].groups.fill((GroupState::Missing, DVec2::ZERO));
+            rows.groups[r % 2].state.fill(GroupState::Missing);
+            rows.groups[r % 2].fast.fill(false);
         }
         if (ry0..=ry1).contains(&y) {
             phase_a.row(y, rows, kernels, slots, overflow, &mut hist, st);
@@ -306,13 +334,56 @@ fn transform_row(
 
 /// Phase 2 on one row: the groups whose top-left samples are in warped row
 /// `a` (bottom samples in `b`); the last column has none (Missing).
+/// [`group`]'s rules and arithmetic, operation for operation, but
+/// branch-free over arrays (every test evaluated, the state selected), so
+/// that the loop vectorises.
 fn group_row(a: &WarpedRow, b: &WarpedRow, threshold: f64, out: &mut GroupRow) {
-    let n = out.groups.len();
-    for k in 0..n - 1 {
-        let at = |x: u32, y: u32| if y == 0 { a.at(x as usize) } else { b.at(x as usize) };
-        out.groups[k] = group(at, k as u32, 0, threshold);
+    let n = out.state.len();
+    // `same_surface`'s limit is `threshold · |o| · 0.5 · (E_a + E_b)`, left to right.
+    let (t1, t2) = (threshold * 1.0 * 0.5, threshold * std::f64::consts::SQRT_2 * 0.5);
+    let m = n - 1;
+    let (ax, ay, ae, aok) = (&a.px[..n], &a.py[..n], &a.e[..n], &a.ok[..n]);
+    let (bx, by, be, bok) = (&b.px[..n], &b.py[..n], &b.e[..n], &b.ok[..n]);
+    let (state, cx, cy) = (&mut out.state[..m], &mut out.cx[..m], &mut out.cy[..m]);
+    let (fast, ceil_x, ceil_y) = (&mut out.fast[..m], &mut out.ceil_x[..m], &mut out.ceil_y[..m]);
+    for k in 0..m {
+        // a, b: top left and right; c, d: bottom left and right.
+        let (pa, pb, pc, pd) = ((ax[k], ay[k]), (ax[k + 1], ay[k + 1]), (bx[k], by[k]), (bx[k + 1], by[k + 1]));
+        let (ea, eb, ec, ed) = (ae[k], ae[k + 1], be[k], be[k + 1]);
+        let ok = aok[k] & aok[k + 1] & bok[k] & bok[k + 1];
+        let same = |p: (f64, f64), q: (f64, f64), ep: f64, eq: f64, t: f64| {
+            let limit = t * (ep + eq);
+            let (dx, dy) = (p.0 - q.0, p.1 - q.1);
+            dx * dx + dy * dy <= limit * limit
+        };
+        let all = same(pa, pb, ea, eb, t1)
+            & same(pc, pd, ec, ed, t1)
+            & same(pa, pc, ea, ec, t1)
+            & same(pb, pd, eb, ed, t1)
+            & same(pa, pd, ea, ed, t2)
+            & same(pb, pc, eb, ec, t2);
+        // `folded`: quad a, b, d, c must turn left at every corner.
+        let cross = |u: (f64, f64), v: (f64, f64), w: (f64, f64)| {
+            let (e1, e2) = ((v.0 - u.0, v.1 - u.1), (w.0 - v.0, w.1 - v.1));
+            e1.0 * e2.1 - e1.1 * e2.0 <= 0.0
+        };
+        let folded = cross(pa, pb, pd) | cross(pb, pd, pc) | cross(pd, pc, pa) | cross(pc, pa, pb);
+        state[k] = if !ok {
+            GroupState::Missing
+        } else if !all {
+            GroupState::Discontinuous
+        } else if folded {
+            GroupState::Folded
+        } else {
+            GroupState::Shared
+        };
+        let (x, y) = ((pa.0 + pb.0 + pc.0 + pd.0) * 0.25, (pa.1 + pb.1 + pc.1 + pd.1) * 0.25);
+        (cx[k], cy[k]) = (x, y);
+        fast[k] = ok & all & !folded & (x.abs() < CEIL_I32_RANGE) & (y.abs() < CEIL_I32_RANGE);
+        (ceil_x[k], ceil_y[k]) = (ceil_i32(x), ceil_i32(y));
     }
-    out.groups[n - 1] = (GroupState::Missing, DVec2::ZERO);
+    out.state[m] = GroupState::Missing;
+    out.fast[m] = false;
 }
 
 /// Phase A's fixed inputs for one reference.
@@ -345,8 +416,11 @@ impl PhaseA<'_> {
         let r = (y - q.y0) as usize;
         let warped_row = |yy: u32| &rows.warped[(yy - q.y0) as usize % 3];
         let at = |x: u32, yy: u32| warped_row(yy).at((x - q.x0) as usize);
-        let group_at = |gx: u32, gy: u32| rows.groups[(gy - q.y0) as usize % 2].groups[(gx - q.x0) as usize];
+        let group_at = |gx: u32, gy: u32| rows.groups[(gy - q.y0) as usize % 2].at((gx - q.x0) as usize);
         let cur = &rows.warped[r % 3];
+        // Groups of rows y − 1 and y (the fast path's; y ≥ 1 there).
+        let (gp, gc) = (&rows.groups[(r + 1) % 2], &rows.groups[r % 2]);
+        let inner_y = y >= 1 && y + 1 < h;
         let dw = self.size.0;
         let by = y / cull::BLOCK;
         for bx in 0..self.live.bw {
@@ -355,10 +429,28 @@ impl PhaseA<'_> {
             }
             let xs = bx * cull::BLOCK..((bx + 1) * cull::BLOCK).min(w);
             for x in xs {
-                let Some(t) = cur.at((x - q.x0) as usize) else { continue };
-                let (c, edges) = corners(ctx, img, &t, group_at, x, y);
-                let (x0, x1, y0, y1) = bounding_box(&c);
-                let rc = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size);
+                let kx = (x - q.x0) as usize;
+                let Some(t) = cur.at(kx) else { continue };
+                // Inside the image with all four groups around the sample one
+                // surface: shared corners only (no edge corner), the sample's
+                // own group counts nothing, and it is no forward edge (every
+                // 8-neighbour passed `same_surface` with it in a shared group).
+                // The box's covered centres are then the extreme ceilings of
+                // the corners (ceil is monotone), computed once per group.
+                let shared =
+                    inner_y && x >= 1 && x + 1 < w && { gp.fast[kx - 1] & gp.fast[kx] & gc.fast[kx - 1] & gc.fast[kx] };
+                let (rc, edges) = if shared {
+                    let span = |a: i32, b: i32, c: i32, d: i32| {
+                        (a.min(b).min(c.min(d)) as i64, a.max(b).max(c.max(d)) as i64 - 1)
+                    };
+                    let rx = span(gp.ceil_x[kx - 1], gp.ceil_x[kx], gc.ceil_x[kx - 1], gc.ceil_x[kx]);
+                    let ry = span(gp.ceil_y[kx - 1], gp.ceil_y[kx], gc.ceil_y[kx - 1], gc.ceil_y[kx]);
+                    (rect_of_ranges(rx, ry, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size), 0)
+                } else {
+                    let (c, edges) = corners(ctx, img, &t, group_at, x, y);
+                    let (x0, x1, y0, y1) = bounding_box(&c);
+                    (rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size), edges)
+                };
                 if rc.x.0 > rc.x.1 || rc.y.0 > rc.y.1 {
                     continue;
                 }
@@ -366,21 +458,21 @@ impl PhaseA<'_> {
                 hist[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
                 st.kernels_over_limit += rc.over_limit as u64;
                 st.edge_corners += edges as u64;
-                if x + 1 < w && y + 1 < h {
-                    match group_at(x, y).0 {
-                        GroupState::Discontinuous => st.discontinuous_groups += 1,
-                        GroupState::Folded => st.folded_groups += 1,
-                        _ => {}
+                let mut fill = [0, 0];
+                if !shared {
+                    if x + 1 < w && y + 1 < h {
+                        match group_at(x, y).0 {
+                            GroupState::Discontinuous => st.discontinuous_groups += 1,
+                            GroupState::Folded => st.folded_groups += 1,
+                            _ => {}
+                        }
                     }
-                }
-                let fill = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
-                    Some(k) => {
+                    if let Some(k) = forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
                         st.forward_edges += 1;
                         let (nx, ny) = ((k % w as usize) as i64, (k / w as usize) as i64);
-                        [(nx - x as i64) as i8, (ny - y as i64) as i8]
+                        fill = [(nx - x as i64) as i8, (ny - y as i64) as i8];
                     }
-                    None => [0, 0],
-                };
+                }
                 let k = kernels.len() as u32;
                 debug_assert!(k < MULTI);
                 rc.for_each(|sx, sy| {
@@ -405,5 +497,66 @@ impl PhaseA<'_> {
                 });
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::golden::kernel_setup::group;
+
+    /// Two warped rows of pseudo-random samples: jittered grid positions
+    /// (some far apart, some swapped, some missing) with random spacing.
+    fn rows(n: usize, seed: u64) -> [WarpedRow; 2] {
+        let mut s = seed;
+        let mut next = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut out: [WarpedRow; 2] = Default::default();
+        for (y, r) in out.iter_mut().enumerate() {
+            r.resize(n);
+            for k in 0..n {
+                // Some samples jump ahead (discontinuities), some back past
+                // their left neighbour (folds).
+                let jump = if next() < 0.04 { 3.0 * next() } else if next() < 0.04 { -1.2 } else { 0.0 };
+                r.px[k] = k as f64 * 1.1 + (next() - 0.5) * 0.3 + jump;
+                r.py[k] = y as f64 * 1.1 + (next() - 0.5) * 0.3;
+                r.e[k] = 0.9 + next() * 0.8;
+                r.inv_z[k] = next();
+                r.ok[k] = next() > 0.05;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn branch_free_groups_give_the_group_functions_results() {
+        let mut states = [0u32; 4];
+        for seed in 1..20u64 {
+            let [a, b] = rows(300, seed.wrapping_mul(0x9e3779b97f4a7c15));
+            let mut g = GroupRow::default();
+            g.resize(300);
+            group_row(&a, &b, 1.4, &mut g);
+            let at = |x: u32, y: u32| if y == 0 { a.at(x as usize) } else { b.at(x as usize) };
+            for k in 0..300 {
+                let want = if k + 1 < 300 { group(at, k as u32, 0, 1.4) } else { (GroupState::Missing, DVec2::ZERO) };
+                let got = g.at(k);
+                assert_eq!(got.0, want.0, "seed {seed} group {k}");
+                assert_eq!(
+                    got.1.to_array().map(f64::to_bits),
+                    want.1.to_array().map(f64::to_bits),
+                    "seed {seed} group {k}"
+                );
+                assert_eq!(g.fast[k], want.0 == GroupState::Shared, "in range here");
+                if g.fast[k] {
+                    assert_eq!((g.ceil_x[k] as f64, g.ceil_y[k] as f64), (want.1.x.ceil(), want.1.y.ceil()));
+                }
+                states[want.0 as usize] += 1;
+            }
+        }
+        assert!(states.iter().all(|&n| n > 200), "every state met: {states:?}");
     }
 }
