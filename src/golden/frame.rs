@@ -230,18 +230,23 @@ impl Warper {
 
 /// Add one composite outcome to the counters.
 pub(super) fn count_outcome(st: &mut GoldenStats, o: Outcome) {
+    count_outcomes(st, o, 1);
+}
+
+/// Add `n` composites with outcome `o` to the counters.
+pub(super) fn count_outcomes(st: &mut GoldenStats, o: Outcome, n: u64) {
     match o {
-        Outcome::Filled => st.composite_filled += 1,
-        Outcome::NearerWins => st.composite_nearer += 1,
-        Outcome::BetterWins => st.composite_better += 1,
-        Outcome::Lost => st.composite_lost += 1,
+        Outcome::Filled => st.composite_filled += n,
+        Outcome::NearerWins => st.composite_nearer += n,
+        Outcome::BetterWins => st.composite_better += n,
+        Outcome::Lost => st.composite_lost += n,
         Outcome::MeshOverSplat => {
-            st.composite_better += 1;
-            st.mesh_over_splat += 1;
+            st.composite_better += n;
+            st.mesh_over_splat += n;
         }
         Outcome::SplatRejected => {
-            st.composite_lost += 1;
-            st.splats_rejected_by_mesh += 1;
+            st.composite_lost += n;
+            st.splats_rejected_by_mesh += n;
         }
     }
 }

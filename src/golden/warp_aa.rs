@@ -3,10 +3,10 @@
 //! slots (phase A, reference raster order), then compositing each derived
 //! sample's candidates in warp order (phase B).
 
-use super::composite::{Candidate, Kind, composite_with};
+use super::composite::{Candidate, Kind, Outcome, composite_with};
 use super::config::{GoldenConfig, WarpOrder};
 use super::cull;
-use super::frame::{GoldenStats, KERNEL_HIST_MAX, PreparedReference, count_outcome, forward_edge_neighbour};
+use super::frame::{GoldenStats, KERNEL_HIST_MAX, PreparedReference, count_outcomes, forward_edge_neighbour};
 use super::kernel_setup::{GroupState, bounding_box, corners};
 use super::planes::DestPlanes;
 use super::raster::{CEIL_I32_RANGE, ceil_i32, rect, rect_of_ranges};
@@ -243,29 +243,8 @@ pub(super) fn warp_reference(
     // kernels one by one in warp order (rule 2). The overflow list sorted
     // holds each shared sample's candidates together.
     overflow.sort_unstable();
-    let mut draw = |d: &mut DestPlanes, s: usize, kern: &Kernel| {
-        let i = img.index(kern.x, kern.y);
-        let fill =
-            img.index(kern.x.wrapping_add_signed(kern.fill[0] as i32), kern.y.wrapping_add_signed(kern.fill[1] as i32));
-        let cand = Candidate {
-            colour: img.colour[i],
-            inv_z: kern.inv_z,
-            slopes: kern.slopes,
-            source,
-            better: 0, // read below
-            fill_colour: img.colour[fill],
-            kind: Kind::Mesh,
-        };
-        let better = || match kern.better.get() {
-            UNKNOWN => {
-                let m = ctx.better_mask(kern.x as f64, kern.y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
-                kern.better.set(m as u16);
-                m
-            }
-            m => m as u32,
-        };
-        count_outcome(st, composite_with(d, s, &cand, better, cfg.slope_tol, cfg.rel_tol));
-    };
+    let b = PhaseB { ctx, prepared, source, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol };
+    let mut counts = [0u64; OUTCOMES];
     let mut next = 0;
     for (s, &slot) in slots.iter().enumerate() {
         match slot {
@@ -284,11 +263,71 @@ pub(super) fn warp_reference(
                     if reverse { !key } else { key }
                 });
                 for &e in shared.iter() {
-                    draw(d, s, &kernels[e as u32 as usize]);
+                    b.draw(d, s, &kernels[e as u32 as usize], &mut counts);
                 }
             }
-            k => draw(d, s, &kernels[k as usize]),
+            k => b.draw(d, s, &kernels[k as usize], &mut counts),
         }
+    }
+    for (k, &n) in counts.iter().enumerate() {
+        count_outcomes(st, OUTCOME_ORDER[k], n);
+    }
+}
+
+/// Every [`Outcome`], in declaration order (`OUTCOME_ORDER[o as usize] == o`).
+const OUTCOME_ORDER: [Outcome; OUTCOMES] = [
+    Outcome::Filled,
+    Outcome::NearerWins,
+    Outcome::BetterWins,
+    Outcome::Lost,
+    Outcome::MeshOverSplat,
+    Outcome::SplatRejected,
+];
+const OUTCOMES: usize = 6;
+
+/// Phase B's fixed inputs for one reference.
+struct PhaseB<'a> {
+    ctx: &'a WarpContext,
+    prepared: &'a PreparedReference,
+    source: u8,
+    slope_tol: f64,
+    rel_tol: f64,
+}
+
+impl PhaseB<'_> {
+    /// Composite kernel `kern`'s candidate into derived sample `s`; count
+    /// the outcome in `counts` (at `outcome as usize`).
+    #[inline(always)]
+    fn draw(&self, d: &mut DestPlanes, s: usize, kern: &Kernel, counts: &mut [u64; OUTCOMES]) {
+        let img = &self.prepared.samples;
+        let i = img.index(kern.x, kern.y);
+        let colour = img.colour[i];
+        let fill_colour = if kern.fill == [0, 0] {
+            colour
+        } else {
+            let (fx, fy) =
+                (kern.x.wrapping_add_signed(kern.fill[0] as i32), kern.y.wrapping_add_signed(kern.fill[1] as i32));
+            img.colour[img.index(fx, fy)]
+        };
+        let cand = Candidate {
+            colour,
+            inv_z: kern.inv_z,
+            slopes: kern.slopes,
+            source: self.source,
+            better: 0, // read below
+            fill_colour,
+            kind: Kind::Mesh,
+        };
+        let better = || match kern.better.get() {
+            UNKNOWN => {
+                let m = self.ctx.better_mask(kern.x as f64, kern.y as f64, self.prepared.inv_z[i], img.inv_z_slopes[i]);
+                kern.better.set(m as u16);
+                m
+            }
+            m => m as u32,
+        };
+        let o = composite_with(d, s, &cand, better, self.slope_tol, self.rel_tol);
+        counts[o as usize] += 1;
     }
 }
 
@@ -521,7 +560,13 @@ mod tests {
             for k in 0..n {
                 // Some samples jump ahead (discontinuities), some back past
                 // their left neighbour (folds).
-                let jump = if next() < 0.04 { 3.0 * next() } else if next() < 0.04 { -1.2 } else { 0.0 };
+                let jump = if next() < 0.04 {
+                    3.0 * next()
+                } else if next() < 0.04 {
+                    -1.2
+                } else {
+                    0.0
+                };
                 r.px[k] = k as f64 * 1.1 + (next() - 0.5) * 0.3 + jump;
                 r.py[k] = y as f64 * 1.1 + (next() - 0.5) * 0.3;
                 r.e[k] = 0.9 + next() * 0.8;
@@ -530,6 +575,13 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn outcome_order_is_declaration_order() {
+        for (k, &o) in OUTCOME_ORDER.iter().enumerate() {
+            assert_eq!(o as usize, k, "{o:?}");
+        }
     }
 
     #[test]
