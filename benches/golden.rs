@@ -15,7 +15,7 @@
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
-use postwarp::methods::forward_splat;
+use postwarp::methods::baselines::forward_splat::forward_splat_with;
 use postwarp::scene::Scene;
 use postwarp::tracegen::{TraceSpec, frame_in_memory};
 use postwarp_rtl::{FrameCommands, SampleImage};
@@ -46,6 +46,8 @@ fn bench(c: &mut Criterion) {
     let prepared: Vec<&PreparedReference> = input.refs.iter().collect();
     // Both methods warp the same samples: the references after the A-buffer.
     let refs: Vec<&SampleImage> = input.refs.iter().map(|p| &p.samples).collect();
+    // And the same 1/Z planes, made once per reference.
+    let inv_z: Vec<&[f64]> = input.refs.iter().map(|p| p.inv_z.as_slice()).collect();
     let valid: u64 = refs.iter().map(|r| r.valid.count_ones() as u64).sum();
     let cfg = GoldenConfig::default();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one-thread pool");
@@ -64,7 +66,9 @@ fn bench(c: &mut Criterion) {
         pool.install(|| b.iter(|| black_box(warper.warp_frame(&input.cmd, &prepared, &cfg))))
     });
     g.measurement_time(Duration::from_secs(5));
-    g.bench_function("forward_splat", |b| pool.install(|| b.iter(|| black_box(forward_splat(&input.cmd, &refs)))));
+    g.bench_function("forward_splat", |b| {
+        pool.install(|| b.iter(|| black_box(forward_splat_with(&input.cmd, &refs, &inv_z))))
+    });
     g.finish();
 }
 

@@ -99,7 +99,7 @@ pub fn composite(d: &mut DestPlanes, i: usize, c: &Candidate, slope_tol: f64, re
 /// demand: rule 3 is the only reader, so a caller may compute the mask only
 /// when a candidate meets a stored sample from another reference within
 /// tolerance (`c.better` is then ignored).
-#[inline]
+#[inline(always)]
 pub fn composite_with(
     d: &mut DestPlanes,
     i: usize,

@@ -23,17 +23,16 @@
 //!    are the same for both.
 
 use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
-use super::composite::{Candidate, Kind, Outcome, composite_with};
-use super::config::{GoldenConfig, Reconstruction, WarpOrder};
+use super::composite::Outcome;
+use super::config::{GoldenConfig, Reconstruction};
 use super::cull;
 use super::general;
 use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
-use super::kernel_setup::{GroupState, bounding_box, corners, group, same_surface};
+use super::kernel_setup::same_surface;
 use super::planes::DestPlanes;
-use super::raster::rect;
 use super::resolve::resolve;
-use super::transform::{BATCH, SampleBatch, Transformed, WarpContext, backward_neighbour};
-use super::traversal::OrderKey;
+use super::transform::{Transformed, WarpContext, backward_neighbour};
+use super::warp_aa;
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use postwarp_rtl::{FrameCommands, SampleImage};
@@ -145,8 +144,14 @@ pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> Prep
     let mut abuffer = AbufferStats::default();
     let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
     let blocks = cull::block_depth(&samples);
-    let inv_z = (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
+    let inv_z = inv_z_plane(&samples);
     PreparedReference { samples, abuffer, blocks, inv_z }
+}
+
+/// The 1/Z plane of a reference: `1/Z` where valid, 0 elsewhere (made
+/// once per reference: every derived frame it serves reads it).
+pub fn inv_z_plane(img: &SampleImage) -> Vec<f64> {
+    (0..img.len()).map(|i| if img.valid[i] { 1.0 / img.z[i] as f64 } else { 0.0 }).collect()
 }
 
 /// Produce derived frame `cmd` from its prepared references (`refs[j]` for
@@ -172,7 +177,7 @@ impl Warper {
             d.begin_warp();
             match cfg.reconstruction {
                 Reconstruction::AaRect => {
-                    warp_reference(&ctx, prepared, j as u8, cfg, &mut d, &mut st, &mut self.scratch)
+                    warp_aa::warp_reference(&ctx, prepared, j as u8, cfg, &mut d, &mut st, &mut self.scratch)
                 }
                 Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
             }
@@ -209,53 +214,11 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
     st.hole_fill_unreached += hf.unreached;
 }
 
-/// A kernel ready to draw, kept small (24 bytes: phase B reads it from
-/// memory): the rest of its candidate is read from the reference, its
-/// warp-order key recomputed when a bucket needs sorting.
-struct Kernel {
-    /// Reference sample.
-    x: u32,
-    y: u32,
-    /// Derived 1/Z.
-    inv_z: f32,
-    /// Derived slopes of 1/Z.
-    slopes: [f32; 2],
-    /// Better-reference mask once computed ([`UNKNOWN`] before).
-    better: std::cell::Cell<u16>,
-    /// Offset to the reference sample whose colour goes to the hole-fill
-    /// plane (rule 4): (0, 0) or the forward-edge neighbour.
-    fill: [i8; 2],
-}
-
-/// Marks a better-reference mask not yet computed (masks use bits 0–7).
-const UNKNOWN: u16 = u16::MAX;
-
-/// Working buffers of one reference warp, kept across warps and frames so
-/// that a run does not page-fault fresh memory for every warp.
-#[derive(Default)]
-struct Scratch {
-    warped: Vec<Option<Transformed>>,
-    groups: Vec<(GroupState, DVec2)>,
-    kernels: Vec<Kernel>,
-    /// Per derived sample: its only candidate kernel so far, [`EMPTY`] or
-    /// [`MULTI`].
-    slots: Vec<u32>,
-    /// `(derived sample << 32) | kernel` for the derived samples with
-    /// several candidates ([`MULTI`]).
-    overflow: Vec<u64>,
-}
-
-/// A derived sample no kernel covers (yet).
-const EMPTY: u32 = u32::MAX;
-/// A derived sample several kernels cover: its candidates are in the
-/// overflow list.
-const MULTI: u32 = u32::MAX - 1;
-
 /// The golden model with its working buffers: create one and reuse it for
 /// every frame of a run.
 #[derive(Default)]
 pub struct Warper {
-    scratch: Scratch,
+    scratch: warp_aa::Scratch,
 }
 
 impl Warper {
@@ -265,221 +228,25 @@ impl Warper {
     }
 }
 
-/// Warp one reference into `d` (rules 2, 4 and 5).
-fn warp_reference(
-    ctx: &WarpContext,
-    prepared: &PreparedReference,
-    source: u8,
-    cfg: &GoldenConfig,
-    d: &mut DestPlanes,
-    st: &mut GoldenStats,
-    scratch: &mut Scratch,
-) {
-    let Scratch { warped, groups, kernels, slots, overflow } = scratch;
-    let img = &prepared.samples;
-    let (w, h) = (img.width, img.height);
-    st.reference_samples += img.valid.count_ones() as u64;
-    let live = cull::live_blocks(ctx, &prepared.blocks, d.width, d.height);
-    let Some((rx0, ry0, rx1, ry1)) = live.bounds(w, h) else { return };
-    // The live region plus its one-sample ring (neighbours of live samples).
-    let (qx0, qy0) = (rx0.saturating_sub(1), ry0.saturating_sub(1));
-    let (qx1, qy1) = ((rx1 + 1).min(w - 1), (ry1 + 1).min(h - 1));
-    let qw = (qx1 - qx0 + 1) as usize;
-    let qi = |x: u32, y: u32| (y - qy0) as usize * qw + (x - qx0) as usize;
-    warped.clear();
-    warped.reserve(qw * (qy1 - qy0 + 1) as usize);
-    let mut out = [[0.0; 4]; BATCH];
-    let mut ok = [false; BATCH];
-    for y in qy0..=qy1 {
-        // A batch of samples at a time (the transform's loop vectorises).
-        for x in (qx0..=qx1).step_by(BATCH) {
-            let n = ((qx1 - x + 1) as usize).min(BATCH);
-            let i0 = img.index(x, y);
-            ctx.transform_batch(x as f64, y as f64, &prepared.inv_z[i0..i0 + n], &mut out[..n], &mut ok[..n]);
-            for k in 0..n {
-                let valid = img.valid[i0 + k];
-                let [px, py, inv_z, e] = out[k];
-                let t = (valid && ok[k]).then_some(Transformed { pos: DVec2::new(px, py), inv_z, e });
-                st.culled_samples += (valid && t.is_none()) as u64;
-                warped.push(t);
-            }
-        }
-    }
-    // Samples outside the region are in culled blocks, where W > 0 (cull.rs).
-    let at = |x: u32, y: u32| warped[qi(x, y)];
-    groups.clear();
-    groups.reserve(qw * (qy1 - qy0 + 1) as usize);
-    for gy in qy0..=qy1 {
-        for gx in qx0..=qx1 {
-            groups.push(if gx < qx1 && gy < qy1 {
-                group(at, gx, gy, cfg.threshold)
-            } else {
-                (GroupState::Missing, DVec2::ZERO)
-            });
-        }
-    }
-    let group_at = |gx: u32, gy: u32| groups[qi(gx, gy)];
-    let keys = OrderKey::new(w, h, &ctx.setup.epipole_reference);
-    let reverse = cfg.warp_order == WarpOrder::Reverse;
-    let size = (d.width, d.height);
-
-    // Phase A, raster order: every kernel that reaches the derived image.
-    kernels.clear();
-    slots.clear();
-    slots.resize(d.len(), EMPTY);
-    overflow.clear();
-    for y in ry0..=ry1 {
-        for x in rx0..=rx1 {
-            if !live.sample_live(x, y) {
-                continue;
-            }
-            let Some(t) = at(x, y) else { continue };
-            let (c, edges) = corners(ctx, img, &t, group_at, x, y);
-            let (x0, x1, y0, y1) = bounding_box(&c);
-            let r = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, size);
-            if r.x.0 > r.x.1 || r.y.0 > r.y.1 {
-                continue;
-            }
-            let (kw, kh) = (r.size.0 as usize, r.size.1 as usize);
-            st.kernel_sizes[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
-            st.kernels_over_limit += r.over_limit as u64;
-            st.edge_corners += edges as u64;
-            if x + 1 < w && y + 1 < h {
-                match group_at(x, y).0 {
-                    GroupState::Discontinuous => st.discontinuous_groups += 1,
-                    GroupState::Folded => st.folded_groups += 1,
-                    _ => {}
-                }
-            }
-            let fill = match forward_edge_neighbour(ctx, img, at, &t, x, y, cfg.threshold) {
-                Some(k) => {
-                    st.forward_edges += 1;
-                    let (nx, ny) = ((k % w as usize) as i64, (k / w as usize) as i64);
-                    [(nx - x as i64) as i8, (ny - y as i64) as i8]
-                }
-                None => [0, 0],
-            };
-            let k = kernels.len() as u32;
-            debug_assert!(k < MULTI);
-            r.for_each(|sx, sy| {
-                let s = (sy * d.width + sx) as usize;
-                match slots[s] {
-                    EMPTY => slots[s] = k,
-                    MULTI => overflow.push(((s as u64) << 32) | k as u64),
-                    first => {
-                        overflow.push(((s as u64) << 32) | first as u64);
-                        overflow.push(((s as u64) << 32) | k as u64);
-                        slots[s] = MULTI;
-                    }
-                }
-            });
-            kernels.push(Kernel {
-                x,
-                y,
-                inv_z: t.inv_z as f32,
-                slopes: [0.0; 2],                      // set below, in a pass of their own
-                better: std::cell::Cell::new(UNKNOWN), // below or on demand
-                fill,
-            });
-        }
-    }
-
-    // Derived slopes, and the better-reference masks when earlier warps
-    // have stored samples the kernels may meet (compositing rule 3;
-    // otherwise on demand), in loops of their own over batches of kernels:
-    // they vectorise, and the divisions of successive kernels overlap where
-    // inside phase A each stalled it.
-    let masks_now = source > 0;
-    let mut batch = SampleBatch::default();
-    let (mut slopes, mut masks) = ([[0.0; 2]; BATCH], [0u32; BATCH]);
-    for chunk in kernels.chunks_mut(BATCH) {
-        let n = chunk.len();
-        for (k, kern) in chunk.iter().enumerate() {
-            let i = img.index(kern.x, kern.y);
-            batch.x[k] = kern.x as f64;
-            batch.y[k] = kern.y as f64;
-            batch.inv_z[k] = prepared.inv_z[i];
-            batch.sx[k] = img.inv_z_slopes[i][0] as f64;
-            batch.sy[k] = img.inv_z_slopes[i][1] as f64;
-        }
-        ctx.dest_slopes_batch(&batch, &mut slopes[..n]);
-        for (kern, s) in chunk.iter_mut().zip(&slopes) {
-            kern.slopes = [s[0] as f32, s[1] as f32];
-        }
-        if masks_now {
-            ctx.better_mask_batch(&mut batch, &mut masks[..n]);
-            for (kern, &m) in chunk.iter_mut().zip(&masks) {
-                kern.better.set(m as u16);
-            }
-        }
-    }
-    // Phase B: per derived sample, composite its candidates in warp order.
-    // Compositing touches only its own sample, so this equals drawing the
-    // kernels one by one in warp order (rule 2). The overflow list sorted
-    // holds each shared sample's candidates together.
-    overflow.sort_unstable();
-    let mut draw = |d: &mut DestPlanes, s: usize, kern: &Kernel| {
-        let i = img.index(kern.x, kern.y);
-        let fill =
-            img.index(kern.x.wrapping_add_signed(kern.fill[0] as i32), kern.y.wrapping_add_signed(kern.fill[1] as i32));
-        let cand = Candidate {
-            colour: img.colour[i],
-            inv_z: kern.inv_z,
-            slopes: kern.slopes,
-            source,
-            better: 0, // read below
-            fill_colour: img.colour[fill],
-            kind: Kind::Mesh,
-        };
-        let better = || match kern.better.get() {
-            UNKNOWN => {
-                let m = ctx.better_mask(kern.x as f64, kern.y as f64, prepared.inv_z[i], img.inv_z_slopes[i]);
-                kern.better.set(m as u16);
-                m
-            }
-            m => m as u32,
-        };
-        count_outcome(st, composite_with(d, s, &cand, better, cfg.slope_tol, cfg.rel_tol));
-    };
-    let mut next = 0;
-    for (s, &slot) in slots.iter().enumerate() {
-        match slot {
-            EMPTY => {}
-            MULTI => {
-                let begin = next;
-                while next < overflow.len() && (overflow[next] >> 32) as usize == s {
-                    next += 1;
-                }
-                let shared = &mut overflow[begin..next];
-                // Keys are distinct (one per reference sample): any sort
-                // gives the warp order.
-                shared.sort_unstable_by_key(|&e| {
-                    let kern = &kernels[e as u32 as usize];
-                    if reverse { keys.warp_key(kern.x, kern.y) } else { keys.key(kern.x, kern.y) }
-                });
-                for &e in shared.iter() {
-                    draw(d, s, &kernels[e as u32 as usize]);
-                }
-            }
-            k => draw(d, s, &kernels[k as usize]),
-        }
-    }
-}
-
 /// Add one composite outcome to the counters.
 pub(super) fn count_outcome(st: &mut GoldenStats, o: Outcome) {
+    count_outcomes(st, o, 1);
+}
+
+/// Add `n` composites with outcome `o` to the counters.
+pub(super) fn count_outcomes(st: &mut GoldenStats, o: Outcome, n: u64) {
     match o {
-        Outcome::Filled => st.composite_filled += 1,
-        Outcome::NearerWins => st.composite_nearer += 1,
-        Outcome::BetterWins => st.composite_better += 1,
-        Outcome::Lost => st.composite_lost += 1,
+        Outcome::Filled => st.composite_filled += n,
+        Outcome::NearerWins => st.composite_nearer += n,
+        Outcome::BetterWins => st.composite_better += n,
+        Outcome::Lost => st.composite_lost += n,
         Outcome::MeshOverSplat => {
-            st.composite_better += 1;
-            st.mesh_over_splat += 1;
+            st.composite_better += n;
+            st.mesh_over_splat += n;
         }
         Outcome::SplatRejected => {
-            st.composite_lost += 1;
-            st.splats_rejected_by_mesh += 1;
+            st.composite_lost += n;
+            st.splats_rejected_by_mesh += n;
         }
     }
 }

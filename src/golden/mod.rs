@@ -18,3 +18,4 @@ pub mod raster;
 pub mod resolve;
 pub mod transform;
 pub mod traversal;
+mod warp_aa;

@@ -14,6 +14,17 @@
 
 use super::config::OverLimit;
 
+/// Largest |v| [`ceil_i32`] takes.
+pub const CEIL_I32_RANGE: f64 = (1u32 << 30) as f64;
+
+/// `v.ceil()` as an `i32` for |v| < [`CEIL_I32_RANGE`] (the caller checks;
+/// anything else gives some value), branch-free and without a libm call.
+#[inline(always)]
+pub fn ceil_i32(v: f64) -> i32 {
+    let t = v as i32; // truncates toward zero
+    t + ((t as f64) < v) as i32
+}
+
 /// `v.ceil()` as an integer, without a libm call on targets lacking a
 /// rounding instruction; exact for |v| < 2^52, saturating beyond.
 #[inline(always)]
@@ -75,7 +86,19 @@ pub fn rect(
     over: OverLimit,
     size: (u32, u32),
 ) -> Rect {
-    let (rx, ry) = (covered(x0, x1), covered(y0, y1));
+    rect_of_ranges(covered(x0, x1), covered(y0, y1), centre, limit, over, size)
+}
+
+/// [`rect`] from the covered centres along each axis ([`covered`]).
+#[inline(always)]
+pub fn rect_of_ranges(
+    rx: (i64, i64),
+    ry: (i64, i64),
+    centre: (f64, f64),
+    limit: u32,
+    over: OverLimit,
+    size: (u32, u32),
+) -> Rect {
     let len = |r: (i64, i64)| (r.1 - r.0 + 1).max(0) as u32;
     let kernel = (len(rx), len(ry));
     let over_limit = kernel.0 > limit || kernel.1 > limit;
@@ -110,6 +133,16 @@ mod tests {
             [-2.5, -2.0, -1e-300, -0.0, 0.0, 1e-300, 0.5, 1.0, 1.0000001, 3.999999, 1e15 + 0.5, -1e18, 1e18, f64::NAN]
         {
             assert_eq!(ceil_i64(v), v.ceil() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn fast_i32_ceil_matches_ceil_in_its_range() {
+        let r = CEIL_I32_RANGE;
+        let below = |v: f64| f64::from_bits(v.to_bits() - 1);
+        for v in [-r + 0.5, -2.5, -2.0, -1e-300, -0.0, 0.0, 1e-300, 0.5, 1.0, below(1.0), 1.0000001, 3.999999, below(r)]
+        {
+            assert_eq!(ceil_i32(v) as f64, v.ceil(), "{v}");
         }
     }
 
