@@ -467,6 +467,7 @@ pub fn make_trace_with(
                 colour: box_filter(img.width, img.height, ss, &img.colour),
                 known: bitvec::vec::BitVec::repeat(true, (spec.width * spec.height) as usize),
                 nondiffuse,
+                seen: None,
             })
         } else {
             None

@@ -71,3 +71,9 @@ fn skipping_is_exact_on_slants() {
 fn skipping_is_exact_on_hairball() {
     check("hairball", 1);
 }
+
+/// The one bundled trace with an unseen border: its fallback pass runs.
+#[test]
+fn skipping_is_exact_on_motorcycle() {
+    check("motorcycle", 1);
+}

@@ -1,10 +1,12 @@
 //! The hardware sheet sequencer (`postwarp_rtl::traversal`) and hole-fill
 //! unit (`postwarp_rtl::units::hole_fill`) against the golden model: the
 //! same sample order for every kind of epipole, and the same hole-fill
-//! planes bit for bit.
+//! planes bit for bit, in both of the unit's modes (the epipolar pass and
+//! the fallback pass, `units::fallback_fill`).
 
 use glam::DVec3;
 use postwarp::golden::config::GoldenConfig;
+use postwarp::golden::fallback_fill::{FallbackStats, fallback_fill};
 use postwarp::golden::frame::{PreparedReference, prepare_reference, warp_frame};
 use postwarp::golden::hole_fill::{HoleFillParams as GoldenParams, HoleFillStats, hole_fill};
 use postwarp::golden::planes::DestPlanes;
@@ -13,6 +15,7 @@ use postwarp::trace::Trace;
 use postwarp_rtl::DestFrame;
 use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::traversal::{Line, Major, OrderKey, forward_lines, reverse_lines};
+use postwarp_rtl::units::fallback_fill::prepare_sample;
 use postwarp_rtl::units::hole_fill::{HoleFillCounters, HoleFillParams, HoleFillUnit};
 use proptest::prelude::*;
 
@@ -384,4 +387,65 @@ fn hole_fill_unit_matches_golden_on_a_warped_room_frame() {
         filled.iter().max().unwrap() > &1000,
         "the frame must have holes for this test to mean anything: {filled:?}"
     );
+}
+
+// ------------------------------------------------------------ fallback fill
+
+/// The fallback pass on each side (golden `fallback_fill`; the unit in its
+/// fallback mode over every sample after `units::fallback_fill`'s
+/// preparation); the planes and counters must agree.
+fn compare_fallback(d: &mut DestPlanes, f: &mut DestFrame, e: &Epipole, p: HoleFillParams, ctx: &str) -> FallbackStats {
+    let gp = GoldenParams { far_distance: p.far_distance, far_offset: p.far_offset, max_distance: p.max_distance };
+    let (st, filled) = fallback_fill(d, e, &gp);
+    for i in 0..f.len() {
+        prepare_sample(f, i);
+    }
+    let mut unit = HoleFillUnit::new_fallback(f.width, f.height, e, p);
+    unit.fill_frame(f);
+    assert_same(d, f, ctx);
+    let c = unit.counters();
+    assert_eq!((c.filled, c.unreached), (st.filled, st.unreached), "{ctx}: counters");
+    assert_eq!(filled.len() as u64, st.filled, "{ctx}: filled samples listed");
+    st
+}
+
+proptest! {
+    #![proptest_config(common::prop_config(300))]
+
+    #[test]
+    fn fallback_mode_matches_golden_bit_for_bit(
+        (w, h, spec) in frame_strategy(),
+        (e, p) in (epipole_strategy(), params_strategy()),
+    ) {
+        let mut d = planes_from(w, h, &spec);
+        let mut f = common::dest_frame(&d);
+        compare_fallback(&mut d, &mut f, &e, p, &format!("{w}x{h}, epipole {:?}, {p:?}", e.h));
+    }
+}
+
+#[test]
+fn fallback_mode_matches_golden_on_edge_epipoles_and_fills_the_unreached_border() {
+    // A 9x7 frame, real samples in the right half only: Mark's pass toward
+    // +x cannot reach the left columns, the fallback fills every one.
+    let (w, h) = (9u32, 7u32);
+    let spec: Vec<SampleSpec> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            (if x >= 5 { 0 } else { 2 }, [x as f32 / 9.0, y as f32 / 7.0, 0.5], 1.0)
+        })
+        .collect();
+    let p = HoleFillParams { far_distance: 4, far_offset: 4, max_distance: 63 };
+    let along_x = Epipole { h: DVec3::new(1.0, 0.0, 0.0) };
+    let mut d = planes_from(w, h, &spec);
+    let mut f = common::dest_frame(&d);
+    compare_pass(&mut d, &mut f, &along_x, p, "Mark's pass");
+    assert!((0..d.len()).any(|i| !d.real[i] && !d.hole[i]), "Mark's pass leaves the left columns empty");
+    let st = compare_fallback(&mut d, &mut f, &along_x, p, "fallback along +x");
+    assert_eq!(st.unreached, 0);
+    assert!((0..d.len()).all(|i| d.real[i] || d.hole[i]), "no empty sample left");
+    for e in [finite(4.0, 3.0, 1.0), finite(-3.0, 3.0, -1.0), finite(12.0, -2.0, 1.0), Epipole { h: DVec3::ZERO }] {
+        let mut d = planes_from(w, h, &spec);
+        let mut f = common::dest_frame(&d);
+        compare_fallback(&mut d, &mut f, &e, p, &format!("epipole {:?}", e.h));
+    }
 }

@@ -3,7 +3,8 @@
 //! importer (the disparity is parsed here, not with `postwarp::import::pfm`).
 
 use glam::DVec3;
-use postwarp::import::middlebury::{ImportError, import_middlebury};
+use postwarp::import::FillUnknownDepth;
+use postwarp::import::middlebury::{ImportError, import_middlebury, import_middlebury_with};
 use postwarp::picture::linear_to_srgb8;
 use postwarp::trace::{SlopeSource, Trace};
 use std::path::{Path, PathBuf};
@@ -39,9 +40,9 @@ fn disparity() -> Vec<f32> {
     out
 }
 
-fn import() -> (tempfile::TempDir, Trace) {
+fn import(fill: FillUnknownDepth) -> (tempfile::TempDir, Trace) {
     let out = tempfile::tempdir().unwrap();
-    let manifest = import_middlebury(&data_dir(), out.path()).unwrap();
+    let manifest = import_middlebury_with(&data_dir(), out.path(), fill).unwrap();
     assert!(manifest.is_file(), "{}", manifest.display());
     let t = Trace::open(&manifest).unwrap();
     (out, t)
@@ -49,7 +50,7 @@ fn import() -> (tempfile::TempDir, Trace) {
 
 #[test]
 fn bundled_pair_imports_with_depth_cameras_and_truth() {
-    let (_out, t) = import();
+    let (_out, t) = import(FillUnknownDepth::None);
     let disp = disparity();
     assert_eq!((t.display.width, t.display.height, t.display.supersample), (W, H, 1));
     assert_eq!(t.references.len(), 1);
@@ -188,4 +189,63 @@ fn truncated_disparity_is_named() {
     std::fs::write(src.join("disp0.pfm"), &bytes[..bytes.len() / 2]).unwrap();
     let msg = import_err(&src).to_string();
     assert!(msg.contains("disp0.pfm") && msg.contains("truncated"), "{msg}");
+}
+
+/// `--fill-unknown-depth background` changes only the samples whose
+/// disparity is unknown: each takes the depth of the farther (smaller
+/// disparity) of its nearest known row neighbours; every measured sample,
+/// every colour and the whole ground truth stay as with `none`.
+#[test]
+fn filling_unknown_depth_changes_only_the_unknown_samples() {
+    let disp = disparity();
+    let (_a, none) = import(FillUnknownDepth::None);
+    let (_b, bg) = import(FillUnknownDepth::Background);
+    let (n, b) = (none.load_reference(0).unwrap().samples, bg.load_reference(0).unwrap().samples);
+    assert_eq!(n.colour, b.colour);
+    let depth = |d: f32| (BASELINE_MM * F / (d as f64 + DOFFS) / 1000.0) as f32;
+    let w = W as usize;
+    let mut filled = 0;
+    for (i, &d) in disp.iter().enumerate() {
+        if d.is_finite() {
+            assert!(n.valid[i] && b.valid[i], "measured sample {i}");
+            assert_eq!(n.z[i].to_bits(), b.z[i].to_bits(), "measured sample {i}: depth changed");
+            continue;
+        }
+        assert!(!n.valid[i], "unknown sample {i} has a surface without the fill");
+        let (x, row) = (i % w, &disp[i - i % w..i - i % w + w]);
+        let left = row[..x].iter().rev().find(|d| d.is_finite());
+        let right = row[x + 1..].iter().find(|d| d.is_finite());
+        let want = match (left, right) {
+            (Some(&l), Some(&r)) => Some(l.min(r)),
+            (l, r) => l.or(r).copied(),
+        };
+        match want {
+            Some(d) => {
+                assert!(b.valid[i], "unknown sample {i} not filled");
+                assert_eq!(b.z[i].to_bits(), depth(d).to_bits(), "sample {i}: the farther neighbour's depth");
+                filled += 1;
+            }
+            None => assert!(!b.valid[i]),
+        }
+    }
+    assert!(filled > 20_000, "7.35 % of the pixels are unknown: {filled} filled");
+    let (tn, tb) = (none.load_truth(0).unwrap().unwrap(), bg.load_truth(0).unwrap().unwrap());
+    assert_eq!((tn.colour, tn.known, tn.seen.clone()), (tb.colour, tb.known, tb.seen));
+}
+
+/// The truth's `seen` mask: the right view's pixels the left view sees.
+/// The strip past the smallest disparity (7.2 px) at the right border is
+/// unseen on every row; most of the image is seen.
+#[test]
+fn the_truth_marks_what_the_left_view_sees() {
+    let (_out, t) = import(FillUnknownDepth::default());
+    let seen = t.load_truth(0).unwrap().unwrap().seen.expect("imported truth has a seen mask");
+    let (w, h) = (W as usize, H as usize);
+    for y in 0..h {
+        for x in w - 7..w {
+            assert!(!seen[y * w + x], "({x}, {y}) lies beyond the left view");
+        }
+    }
+    let share = seen.count_ones() as f64 / seen.len() as f64;
+    assert!((0.80..0.88).contains(&share), "seen share {share}");
 }

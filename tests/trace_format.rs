@@ -42,6 +42,7 @@ fn write_trace(dir: &Path) -> Trace {
         colour: (0..12).map(|i| [i as f32 / 12.0, 0.25, 0.75]).collect(),
         known: (0..12).map(|i| i != 5).collect(),
         nondiffuse: None,
+        seen: Some((0..12).map(|i| i % 3 != 0).collect()),
     };
     w.add_derived(1.0 / 30.0, camera(4, 3, 0.02, 0.01), vec![a, b], Some(&truth)).unwrap();
     w.add_derived(2.0 / 30.0, camera(4, 3, 0.04, 0.02), vec![b, a], None).unwrap();

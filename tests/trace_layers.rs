@@ -91,6 +91,7 @@ fn write_v2(dir: &Path) -> Trace {
         colour: vec![[0.5; 3]; 12],
         known: bitvec::vec::BitVec::repeat(true, 12),
         nondiffuse: Some((0..12).map(|i| i % 5 == 0).collect()),
+        seen: None,
     };
     w.add_derived(1.0 / 30.0, camera(4, 3, 0.05), vec![a, b], Some(&truth)).unwrap();
     w.finish().unwrap();

@@ -129,6 +129,9 @@ pub struct EngineConfig {
     pub hole_max_distance: u32,
     /// Derived samples the hole-fill unit visits per cycle (samples/cycle).
     pub hole_fill_per_cycle: u32,
+    /// After the last warp, the hole-fill unit's fallback pass fills the
+    /// samples no epipolar pass reached (`units::fallback_fill`).
+    pub fallback_fill: bool,
 }
 
 /// Knobs renamed since they were introduced: (old name, new name). Files
@@ -180,6 +183,11 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ("hole_far_offset", "samples", "offset of the far hole-fill taps along the previous line"),
     ("hole_max_distance", "samples", "saturation of the 6-bit hole-fill distance plane"),
     ("hole_fill_per_cycle", "samples/cycle", "derived samples the hole-fill unit visits per cycle"),
+    (
+        "fallback_fill",
+        "bool",
+        "after the last warp, fill the samples no epipolar pass reached (the hole fill's pass in reverse order)",
+    ),
 ];
 
 impl Default for EngineConfig {
@@ -219,6 +227,7 @@ impl Default for EngineConfig {
             hole_far_offset: 4,
             hole_max_distance: 63,
             hole_fill_per_cycle: 1,
+            fallback_fill: true,
         }
     }
 }
@@ -396,7 +405,8 @@ mod tests {
 
     #[test]
     fn every_knob_is_listed_and_has_an_invalid_case() {
-        let listed: Vec<&str> = KNOBS.iter().map(|k| k.0).collect();
+        // A bool knob has no invalid value.
+        let listed: Vec<&str> = KNOBS.iter().filter(|k| k.1 != "bool").map(|k| k.0).collect();
         let tested: Vec<&str> = invalid_cases().iter().map(|k| k.0).collect();
         assert_eq!(listed, tested);
         assert!(KNOBS.iter().all(|(_, unit, desc)| !unit.is_empty() && !desc.is_empty()));

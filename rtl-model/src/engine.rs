@@ -44,6 +44,10 @@
 //! 1. Warps run one after another: a warp starts when the previous one has
 //!    released every tile and its write queue has been issued. The cycle in
 //!    which a warp ends is the first cycle of the next one.
+//! 3. After the last warp, with `fallback_fill`, the hole fill's fallback
+//!    pass (`units::fallback_fill`) reads back the tiles holding empty
+//!    samples, fills them and writes back what changed, every other unit
+//!    idle; then the display read.
 //! 2. The values computed (warp, kernels, composite, hole fill, A-buffer)
 //!    do not depend on timing; only when they are computed does.
 //!
@@ -64,6 +68,7 @@ use crate::traversal::warp_lines;
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
 use crate::units::dest_cache::DestCache;
+use crate::units::fallback_fill::{FallbackPorts, FallbackStage};
 use crate::units::fetch::{FetchPorts, FetchStage, SourceCache};
 use crate::units::hole_fill::{HoleFillParams, HoleFillPorts, HoleFillStage, HoleFillUnit};
 use crate::units::kernel_setup::{Kernel, KernelSetupPorts, KernelSetupStage};
@@ -88,6 +93,9 @@ pub struct FrameOutput {
     pub pixels: Vec<[f32; 3]>,
     /// Pixels whose samples all hold real surfaces.
     pub covered: BitVec,
+    /// Pixels holding a sample the fallback pass filled
+    /// (`units::fallback_fill`): no epipolar pass reached them.
+    pub unseen: BitVec,
     /// Counters.
     pub stats: FrameStats,
     /// The frame's timeline, when recording ([`Engine::record_timeline`]).
@@ -170,6 +178,14 @@ impl Engine {
             m.stats.reference_packed_bytes += r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
             m.stats.dest_packed_bytes.push(m.cache.packed_bytes().iter().sum());
         }
+        let (pw, ph) = (dw / cfg.supersample, dh / cfg.supersample);
+        let mut unseen = BitVec::repeat(false, (pw * ph) as usize);
+        if cfg.fallback_fill
+            && let Some(last) = cmd.warps.last()
+            && let Some(changed) = m.run_fallback(&mut f, &last.setup.epipole_derived, cmd.warps.len())
+        {
+            unseen = changed;
+        }
         m.display_read();
         let mut stats = m.stats;
         stats.cycles = m.now.get();
@@ -187,7 +203,7 @@ impl Engine {
             t
         });
         let (pixels, covered) = resolve(&f, self.cfg.supersample);
-        FrameOutput { frame: f, pixels, covered, stats, timeline }
+        FrameOutput { frame: f, pixels, covered, unseen, stats, timeline }
     }
 }
 
@@ -309,6 +325,61 @@ impl Machine<'_> {
                 t.occupancy[3].add(before, span, self.port.queued() as u64);
             }
         }
+    }
+
+    /// After the last warp (`warp` warps done): the hole fill's fallback
+    /// pass (`units::fallback_fill`), cycle by cycle; the pixels it
+    /// changed, or `None` if there was nothing to fill (no cycle spent).
+    fn run_fallback(&mut self, f: &mut DestFrame, e: &Epipole, warp: usize) -> Option<BitVec> {
+        let cfg = self.cfg;
+        let hole = HoleFillParams {
+            far_distance: cfg.hole_far_distance,
+            far_offset: cfg.hole_far_offset,
+            max_distance: cfg.hole_max_distance,
+        };
+        let (ab, lanes, record) = (abuffer_params(cfg), cfg.hole_fill_per_cycle, self.timeline.is_some());
+        let mut p = FallbackStage::new(f, e, hole, lanes, ab, &self.cache, self.now, record)?;
+        let start = self.now;
+        self.cache.begin_warp(warp);
+        loop {
+            let now = self.now;
+            let mut moved = self.deliver(f, None);
+            moved |= self.port.issue(&mut self.dram, now);
+            let marks = (self.port.queued(), self.cache.loads());
+            moved |= p.tick(now, &mut FallbackPorts { frame: f, cache: &mut self.cache, port: &mut self.port }).moved;
+            moved |= marks != (self.port.queued(), self.cache.loads());
+            if p.is_done(now) && self.port.writes_waiting() == 0 {
+                break;
+            }
+            let next =
+                if moved { None } else { [p.next_event(now), self.memory_event(now)].into_iter().flatten().min() };
+            let span = self.advance(moved, next);
+            if let Some(t) = &mut self.timeline {
+                t.occupancy[3].add(now, span, self.port.queued() as u64);
+                t.occupancy[4].add(now, span, self.cache.tags().occupancy() as u64);
+            }
+        }
+        let span = self.now - start;
+        for u in &mut self.units[..5] {
+            u.charge(UnitState::Idle, span);
+        }
+        for (k, (c, runs)) in [5, 6].into_iter().zip(p.close(self.now)) {
+            self.units[k].add(&c);
+            if let Some(t) = &mut self.timeline {
+                t.append_runs(k, runs);
+            }
+        }
+        let c = p.counters();
+        let s = &mut self.stats;
+        s.fallback_cycles = span;
+        s.fallback_visits = c.visits;
+        s.fallback_filled = c.filled;
+        s.fallback_unreached = c.unreached;
+        s.fallback_tile_loads = self.cache.loads();
+        s.fallback_tiles_written = c.tiles_written;
+        s.unseen_pixels = p.changed_pixels().count_ones() as u64;
+        self.ab.add(p.abuffer_counters());
+        Some(p.changed_pixels().clone())
     }
 
     /// One reference warp: the phase list of the module doc, cycle by cycle.

@@ -81,6 +81,21 @@ pub struct FrameStats {
     pub hole_fill_filled: u64,
     /// Hole samples no tap reached, summed over passes (samples).
     pub hole_fill_unreached: u64,
+    /// Cycles of the fallback pass after the last warp (cycles).
+    pub fallback_cycles: u64,
+    /// Samples the fallback pass visited: those of tiles holding an empty
+    /// sample (samples).
+    pub fallback_visits: u64,
+    /// Empty samples the fallback pass filled (samples).
+    pub fallback_filled: u64,
+    /// Empty samples the fallback pass could not reach (samples).
+    pub fallback_unreached: u64,
+    /// Destination tiles the fallback pass brought into the cache (tiles).
+    pub fallback_tile_loads: u64,
+    /// Destination tiles the fallback pass changed and wrote back (tiles).
+    pub fallback_tiles_written: u64,
+    /// Display pixels holding a sample the fallback pass filled (pixels).
+    pub unseen_pixels: u64,
     /// Derived samples holding hole fill at the end (samples).
     pub hole_samples: u64,
     /// Derived samples with neither surface nor fill at the end (samples).
@@ -151,6 +166,13 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("composite.<verdict>", "samples", "composite verdicts: filled, nearer, better, lost"),
     StatDef::counter("hole_fill_filled", "samples", "hole samples filled, summed over passes"),
     StatDef::counter("hole_fill_unreached", "samples", "hole samples no tap reached, summed over passes"),
+    StatDef::counter("fallback_cycles", "cycles", "cycles of the fallback fill pass after the last warp"),
+    StatDef::counter("fallback_visits", "samples", "samples the fallback pass visited (tiles holding an empty sample)"),
+    StatDef::counter("fallback_filled", "samples", "empty samples the fallback pass filled"),
+    StatDef::counter("fallback_unreached", "samples", "empty samples the fallback pass could not reach"),
+    StatDef::counter("fallback_tile_loads", "tiles", "destination tiles the fallback pass brought into the cache"),
+    StatDef::counter("fallback_tiles_written", "tiles", "destination tiles the fallback pass changed and wrote back"),
+    StatDef::counter("unseen_pixels", "pixels", "display pixels holding a sample the fallback pass filled"),
     StatDef::counter("hole_samples", "samples", "derived samples holding hole fill at the end"),
     StatDef::counter("empty_samples", "samples", "derived samples with neither surface nor fill at the end"),
     StatDef::counter("fragments_per_pixel.<fragments>", "pixels", "derived pixels by A-buffer fragments needed"),
@@ -251,6 +273,13 @@ impl FrameStats {
         }
         put("hole_fill_filled".into(), self.hole_fill_filled);
         put("hole_fill_unreached".into(), self.hole_fill_unreached);
+        put("fallback_cycles".into(), self.fallback_cycles);
+        put("fallback_visits".into(), self.fallback_visits);
+        put("fallback_filled".into(), self.fallback_filled);
+        put("fallback_unreached".into(), self.fallback_unreached);
+        put("fallback_tile_loads".into(), self.fallback_tile_loads);
+        put("fallback_tiles_written".into(), self.fallback_tiles_written);
+        put("unseen_pixels".into(), self.unseen_pixels);
         put("hole_samples".into(), self.hole_samples);
         put("empty_samples".into(), self.empty_samples);
         for (k, &n) in self.fragments_per_pixel.iter().enumerate() {

@@ -31,6 +31,10 @@ pub struct Args {
     /// Disable the epipolar hole fill.
     #[arg(long)]
     pub no_hole_fill: bool,
+    /// Disable the fallback fill after the last warp (samples no epipolar
+    /// pass reached stay empty, black).
+    #[arg(long)]
+    pub no_fallback_fill: bool,
     /// Kernels larger than 4x4: clip (hardware) or allow [default: clip].
     #[arg(long, value_enum)]
     pub over_limit: Option<OverLimit>,
@@ -59,6 +63,7 @@ fn knobs_given(a: &Args) -> bool {
         || a.threshold.is_some()
         || a.abuffer_fragments.is_some()
         || a.no_hole_fill
+        || a.no_fallback_fill
         || a.over_limit.is_some()
         || a.warp_order.is_some()
         || a.reconstruction.is_some()
@@ -81,6 +86,9 @@ pub fn config(a: &Args) -> anyhow::Result<GoldenConfig> {
     }
     if a.no_hole_fill {
         cfg.hole_fill = false;
+    }
+    if a.no_fallback_fill {
+        cfg.fallback_fill = false;
     }
     if let Some(v) = a.over_limit {
         cfg.over_limit = v;

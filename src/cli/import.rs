@@ -1,5 +1,6 @@
 //! `postwarp import-middlebury`: a Middlebury 2014 stereo folder → trace.
 
+use crate::import::FillUnknownDepth;
 use crate::picture::{box_filter, write_png};
 use crate::trace::Trace;
 use std::path::{Path, PathBuf};
@@ -17,11 +18,16 @@ pub struct Args {
     /// this run's (the new folder takes its place only when complete).
     #[arg(long)]
     pub force: bool,
+    /// Unknown disparity: `background` gives a pixel the farther known
+    /// neighbour's disparity on its row (a heuristic, docs/real-data.md);
+    /// `none` leaves it without a surface.
+    #[arg(long, value_enum, default_value_t = FillUnknownDepth::default())]
+    pub fill_unknown_depth: FillUnknownDepth,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
     let out = crate::io_util::OutDir::create(&a.out, a.force, &[&a.dir])?;
-    let manifest = crate::import::middlebury::import_middlebury(&a.dir, out.path())?;
+    let manifest = crate::import::middlebury::import_middlebury_with(&a.dir, out.path(), a.fill_unknown_depth)?;
     write_previews(&manifest)?;
     let dir = out.commit()?;
     eprintln!("wrote {}", dir.join(crate::trace::MANIFEST_NAME).display());

@@ -296,16 +296,32 @@ pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffe
     // One copy per common super-sampling factor, where the sample offsets
     // and loop bounds are constants.
     match p.ss {
-        1 => round_trip_dest_ss(d, p, stats, 1),
-        2 => round_trip_dest_ss(d, p, stats, 2),
-        4 => round_trip_dest_ss(d, p, stats, 4),
-        ss => round_trip_dest_ss(d, p, stats, ss),
+        1 => round_trip_dest_ss(d, p, stats, 1, None),
+        2 => round_trip_dest_ss(d, p, stats, 2, None),
+        4 => round_trip_dest_ss(d, p, stats, 4, None),
+        ss => round_trip_dest_ss(d, p, stats, ss, None),
     }
+}
+
+/// [`round_trip_dest`] of the pixels set in `only` (one bit per display
+/// pixel, row-major) and no other: what the hardware does when it writes
+/// back the pixels one pass changed (the fallback fill, `fallback_fill.rs`).
+pub fn round_trip_dest_where(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats, only: &BitVec) {
+    if p.abuffer_fragments == 0 {
+        return;
+    }
+    round_trip_dest_ss(d, p, stats, p.ss, Some(only));
 }
 
 /// [`round_trip_dest`] with `p.ss == pss`.
 #[inline(always)]
-fn round_trip_dest_ss(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats, pss: u32) {
+fn round_trip_dest_ss(
+    d: &mut DestPlanes,
+    p: &AbufferParams,
+    stats: &mut AbufferStats,
+    pss: u32,
+    only: Option<&BitVec>,
+) {
     debug_assert_eq!(pss, p.ss);
     let ss = pss as usize;
     let w = d.width as usize;
@@ -314,6 +330,9 @@ fn round_trip_dest_ss(d: &mut DestPlanes, p: &AbufferParams, stats: &mut Abuffer
     let mut sc = PixelScratch::default();
     for py in 0..d.height as usize / ss {
         for px in 0..w / ss {
+            if only.is_some_and(|m| !m[py * (w / ss) + px]) {
+                continue;
+            }
             for j in 0..ss {
                 for i in 0..ss {
                     let k = j * ss + i;

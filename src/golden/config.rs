@@ -61,6 +61,10 @@ pub struct GoldenConfig {
     pub abuffer_fragments: u32,
     /// Run the epipolar hole fill after each reference warp.
     pub hole_fill: bool,
+    /// After the last warp, fill the samples no epipolar pass reached by the
+    /// same pass run in the reverse order (`fallback_fill.rs`). Needs
+    /// `hole_fill`.
+    pub fallback_fill: bool,
     /// Hole-fill distance (samples) past which the two far taps join (TR98: 4).
     pub hole_far_distance: u32,
     /// Offset of the far taps along the line (samples; TR98: 4).
@@ -84,6 +88,7 @@ impl Default for GoldenConfig {
             better_margin: 0.05,
             abuffer_fragments: 3,
             hole_fill: true,
+            fallback_fill: true,
             hole_far_distance: 4,
             hole_far_offset: 4,
             hole_max_distance: 63,
@@ -111,6 +116,11 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ),
     ("abuffer_fragments", "fragments/pixel", "A-buffer fragments per pixel between warps (0 = no A-buffer)"),
     ("hole_fill", "bool", "run the epipolar hole fill after each reference warp"),
+    (
+        "fallback_fill",
+        "bool",
+        "after the last warp, fill the samples no epipolar pass reached (the pass in reverse order); needs hole_fill",
+    ),
     ("hole_far_distance", "samples", "hole-fill distance past which the two far taps join"),
     ("hole_far_offset", "samples", "offset of the far hole-fill taps"),
     ("hole_max_distance", "samples", "saturation of the hole-fill distance plane"),

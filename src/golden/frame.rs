@@ -21,11 +21,16 @@
 //!    with the triangle mesh and edge splats of
 //!    [`general::warp_reference_general`]. Hole fill, A-buffer and resolve
 //!    are the same for both.
+//! 6. After the last warp, with `fallback_fill` (and `hole_fill`), the
+//!    samples no epipolar pass reached are filled by the fallback pass
+//!    ([`fallback_fill`]), and the pixels it changed take the A-buffer trip
+//!    again, as the hardware writes them back.
 
-use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_reference};
+use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_dest_where, round_trip_reference};
 use super::composite::Outcome;
 use super::config::{GoldenConfig, Reconstruction};
 use super::cull;
+use super::fallback_fill::fallback_fill;
 use super::general;
 use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
 use super::kernel_setup::same_surface;
@@ -35,6 +40,7 @@ use super::transform::{Transformed, WarpContext, backward_neighbour};
 use super::warp_aa;
 use bitvec::vec::BitVec;
 use glam::DVec2;
+use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::{FrameCommands, SampleImage};
 use serde::Serialize;
 
@@ -98,6 +104,13 @@ pub struct GoldenStats {
     pub hole_fill_filled: u64,
     /// Hole samples no pass could reach, summed over passes.
     pub hole_fill_unreached: u64,
+    /// Hole samples the fallback pass filled (after the last warp).
+    pub fallback_filled: u64,
+    /// Empty samples the fallback pass could not reach (left empty).
+    pub fallback_unreached: u64,
+    /// Display pixels holding a sample the fallback pass filled: what no
+    /// reference saw along any epipolar line the passes follow (pixels).
+    pub unseen_pixels: u64,
     /// Derived samples holding hole fill at the end.
     pub hole_samples: u64,
     /// Derived samples with neither surface nor fill at the end (black).
@@ -118,6 +131,9 @@ pub struct GoldenFrame {
     pub pixels: Vec<[f32; 3]>,
     /// Pixels whose samples all hold real surfaces.
     pub covered: BitVec,
+    /// Pixels holding a sample the fallback pass filled (rule 6): no
+    /// epipolar pass reached them.
+    pub unseen: BitVec,
     /// Counters.
     pub stats: GoldenStats,
 }
@@ -182,15 +198,7 @@ impl Warper {
                 Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
             }
             if cfg.hole_fill {
-                let hf = hole_fill(
-                    &mut d,
-                    &warp.setup.epipole_derived,
-                    &HoleFillParams {
-                        far_distance: cfg.hole_far_distance,
-                        far_offset: cfg.hole_far_offset,
-                        max_distance: cfg.hole_max_distance,
-                    },
-                );
+                let hf = hole_fill(&mut d, &warp.setup.epipole_derived, &hole_fill_params(cfg));
                 add_hole_stats(&mut st, &hf);
             }
             round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
@@ -200,12 +208,56 @@ impl Warper {
                 d.forget_splats();
             }
         }
+        let mut unseen = BitVec::repeat(false, ((d.width / ss) * (d.height / ss)) as usize);
+        if cfg.hole_fill
+            && cfg.fallback_fill
+            && let Some(last) = cmd.warps.last()
+            && let Some(changed) = fallback(&mut d, &last.setup.epipole_derived, ss, cfg, &mut st, &mut ab)
+        {
+            unseen = changed;
+        }
         st.fragments_per_pixel = ab.fragments_per_pixel;
         st.forced_merges = ab.forced_merges;
         st.hole_samples = d.hole.count_ones() as u64;
         st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
         let (pixels, covered) = resolve(&d, ss);
-        GoldenFrame { samples: d, pixels, covered, stats: st }
+        GoldenFrame { samples: d, pixels, covered, unseen, stats: st }
+    }
+}
+
+/// Rule 6: the fallback pass over the samples no epipolar pass reached,
+/// then the A-buffer trip of the pixels it changed; those pixels, or
+/// `None` if no sample was empty.
+fn fallback(
+    d: &mut DestPlanes,
+    e: &Epipole,
+    ss: u32,
+    cfg: &GoldenConfig,
+    st: &mut GoldenStats,
+    ab: &mut AbufferStats,
+) -> Option<BitVec> {
+    if d.real.iter().zip(d.hole.iter()).all(|(r, h)| *r || *h) {
+        return None;
+    }
+    let (fb, filled) = fallback_fill(d, e, &hole_fill_params(cfg));
+    st.fallback_filled += fb.filled;
+    st.fallback_unreached += fb.unreached;
+    let pw = (d.width / ss) as usize;
+    let mut pixels = BitVec::repeat(false, pw * (d.height / ss) as usize);
+    for i in filled {
+        let (x, y) = (i % d.width as usize, i / d.width as usize);
+        pixels.set(y / ss as usize * pw + x / ss as usize, true);
+    }
+    st.unseen_pixels = pixels.count_ones() as u64;
+    round_trip_dest_where(d, &abuffer_params(ss, cfg), ab, &pixels);
+    Some(pixels)
+}
+
+fn hole_fill_params(cfg: &GoldenConfig) -> HoleFillParams {
+    HoleFillParams {
+        far_distance: cfg.hole_far_distance,
+        far_offset: cfg.hole_far_offset,
+        max_distance: cfg.hole_max_distance,
     }
 }
 

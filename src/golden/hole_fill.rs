@@ -63,7 +63,8 @@ pub struct HoleFillParams {
 pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFillStats {
     let (w, h) = (d.width as i64, d.height as i64);
     let keys = OrderKey::new(d.width, d.height, e);
-    let rank = |i: usize| keys.key((i % d.width as usize) as u32, (i / d.width as usize) as u32);
+    let dw = d.width as usize;
+    let rank = |i: usize| keys.key((i % dw) as u32, (i / dw) as u32);
     let mut holes: Vec<(u64, usize)> = d.fill_valid.iter_zeros().map(|i| (rank(i), i)).collect();
     holes.sort_unstable();
     let mut st = HoleFillStats::default();
@@ -118,22 +119,29 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
         }
         let n = taps.len() as f64;
         let c = c.map(|v| (v / n) as f32);
-        d.fill_colour[i] = c;
-        d.fill_valid.set(i, true);
-        d.fill_distance[i] = dist as u8;
         st.filled += 1;
-        if !d.real[i] {
-            let wt = d.fill_weight[i] as f64;
-            let inv_d = 1.0 / dist as f64;
-            let old = if d.hole[i] { d.colour[i] } else { [0.0; 3] };
-            for k in 0..3 {
-                d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
-            }
-            d.fill_weight[i] = (wt + inv_d) as f32;
-            d.hole.set(i, true);
-        }
+        set_fill(d, i, c, dist);
     }
     st
+}
+
+/// Store fill colour `c` at distance `dist` in sample `i` (planes 6–8) and,
+/// if it holds no real surface, accumulate it into planes 1, 5 and 9
+/// (rule 5). Shared with the fallback pass (`fallback_fill.rs`).
+pub(super) fn set_fill(d: &mut DestPlanes, i: usize, c: [f32; 3], dist: u32) {
+    d.fill_colour[i] = c;
+    d.fill_valid.set(i, true);
+    d.fill_distance[i] = dist as u8;
+    if !d.real[i] {
+        let wt = d.fill_weight[i] as f64;
+        let inv_d = 1.0 / dist as f64;
+        let old = if d.hole[i] { d.colour[i] } else { [0.0; 3] };
+        for k in 0..3 {
+            d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+        }
+        d.fill_weight[i] = (wt + inv_d) as f32;
+        d.hole.set(i, true);
+    }
 }
 
 #[cfg(test)]

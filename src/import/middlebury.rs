@@ -9,8 +9,8 @@
 //!   identity orientation, the right camera at `(+baseline, 0, 0)` (OpenCV
 //!   axes: x right, y down, z forward), both at time 0;
 //! - depth `Z = baseline · f / (d + doffs)` (Middlebury's formula, mm), then
-//!   ÷ 1000; a pixel is valid only where `d` is finite (`inf` = unknown, a
-//!   hole, not a surface) and the resulting `Z` is a finite positive `f32`;
+//!   ÷ 1000; a pixel is valid only where `d` is finite (`inf` = unknown) —
+//!   after the fill below — and the resulting `Z` is a finite positive `f32`;
 //!   a disparity that is negative, NaN or `-inf` is an error naming the
 //!   pixel (Middlebury writes none, and a negative one would otherwise
 //!   give a plausible positive depth);
@@ -22,6 +22,11 @@
 //!   disparity `d` projects to `(x − d, y)` in the right camera; keys other
 //!   than `cam0`, `cam1`, `doffs`, `baseline`, `width`, `height` are ignored;
 //! - every size (both images, the PFM, `width`/`height`) must agree;
+//! - unknown disparity: with `--fill-unknown-depth background` (the
+//!   default) an unknown pixel takes the farther known neighbour's
+//!   disparity on its row (`depth_fill.rs`); with `none` it has no surface;
+//! - the truth's `seen` mask: the right pixels the left view sees by the
+//!   measured disparity (`visibility.rs`), whatever the fill;
 //! - every failure is an [`ImportError`] naming the file (and the line and
 //!   key for `calib.txt`); the importer prints nothing.
 
@@ -33,7 +38,9 @@ use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+use super::depth_fill::{FillUnknownDepth, fill_background};
 use super::pfm::{PfmError, read_pfm};
+use super::visibility::seen_from_disparity;
 
 /// Names of the files of a Middlebury 2014 folder.
 pub const LEFT_IMAGE: &str = "im0.png";
@@ -333,8 +340,12 @@ pub struct MiddleburyPair {
     pub left: SampleImage,
     /// The right view as ground truth (linear colour, all known).
     pub right_truth: TruthImage,
-    /// Number of valid left pixels.
+    /// Number of valid left pixels (after the fill of unknown depth).
     pub valid_pixels: usize,
+    /// Left pixels with a measured (finite) disparity.
+    pub measured_pixels: usize,
+    /// What was done with unknown depth.
+    pub fill: FillUnknownDepth,
 }
 
 impl MiddleburyPair {
@@ -344,8 +355,16 @@ impl MiddleburyPair {
     }
 }
 
-/// Read and check a Middlebury 2014 folder (no output written).
+/// Read and check a Middlebury 2014 folder (no output written), unknown
+/// depth treated the default way ([`FillUnknownDepth::default`]).
 pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
+    read_middlebury_with(src, FillUnknownDepth::default())
+}
+
+/// [`read_middlebury`] with unknown depth treated as `fill` says
+/// (`depth_fill.rs`). The truth's `seen` mask comes from the measured
+/// disparity, before any fill (`visibility.rs`).
+pub fn read_middlebury_with(src: &Path, fill: FillUnknownDepth) -> Result<MiddleburyPair, ImportError> {
     if !src.is_dir() {
         return Err(ImportError::input(
             src,
@@ -391,10 +410,16 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
     }
 
     check_disparities(&disp.data, w, &disp_path)?;
+    let seen = seen_from_disparity(&disp.data, w, h);
+    let measured = disp.data.iter().filter(|&&d| calib.depth_m(d).is_some()).count();
+    let mut data = disp.data;
+    if fill == FillUnknownDepth::Background {
+        fill_background(&mut data, w);
+    }
     let mut left = SampleImage::empty(w, h);
     left.colour = left_colour;
     let mut valid_pixels = 0;
-    for (i, &d) in disp.data.iter().enumerate() {
+    for (i, &d) in data.iter().enumerate() {
         if let Some(z) = calib.depth_m(d) {
             left.z[i] = z;
             left.valid.set(i, true);
@@ -402,8 +427,14 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
         }
     }
     let n = left.len();
-    let right_truth =
-        TruthImage { width: w, height: h, colour: right_colour, known: BitVec::repeat(true, n), nondiffuse: None };
+    let right_truth = TruthImage {
+        width: w,
+        height: h,
+        colour: right_colour,
+        known: BitVec::repeat(true, n),
+        nondiffuse: None,
+        seen: Some(seen),
+    };
     let source_name = src
         .canonicalize()
         .ok()
@@ -417,6 +448,8 @@ pub fn read_middlebury(src: &Path) -> Result<MiddleburyPair, ImportError> {
         left,
         right_truth,
         valid_pixels,
+        measured_pixels: measured,
+        fill,
     })
 }
 
@@ -478,7 +511,12 @@ fn read_png_linear(
 /// Import a Middlebury 2014 folder `src` as a trace in directory `out`;
 /// returns the manifest path.
 pub fn import_middlebury(src: &Path, out: &Path) -> Result<PathBuf, ImportError> {
-    let pair = read_middlebury(src)?;
+    import_middlebury_with(src, out, FillUnknownDepth::default())
+}
+
+/// [`import_middlebury`] with unknown depth treated as `fill` says.
+pub fn import_middlebury_with(src: &Path, out: &Path, fill: FillUnknownDepth) -> Result<PathBuf, ImportError> {
+    let pair = read_middlebury_with(src, fill)?;
     write_trace(&pair, out)
 }
 
@@ -503,12 +541,22 @@ pub fn write_trace(pair: &MiddleburyPair, out: &Path) -> Result<PathBuf, ImportE
          f = {} px, doffs = {} px",
         c.baseline_mm, c.cam0.fx, c.doffs
     ));
+    let n = pair.left.len();
+    let unknown = match pair.fill {
+        FillUnknownDepth::None => "pixels with non-finite disparity (unknown) have no surface".to_string(),
+        FillUnknownDepth::Background => format!(
+            "--fill-unknown-depth background: {} pixels of unknown disparity take the farther known neighbour's on \
+             their row (a heuristic of the importer)",
+            pair.valid_pixels - pair.measured_pixels
+        ),
+    };
     w.note(format!(
-        "valid: {} of {} left pixels ({:.2} %); pixels with non-finite disparity (unknown) have no surface; \
-         object ids 0; 1/Z slopes not supplied (finite differences)",
+        "valid: {} of {n} left pixels ({:.2} %), {} measured ({:.2} %); {unknown}; object ids 0; 1/Z slopes not \
+         supplied (finite differences); truth `seen`: right pixels the left view sees by the measured disparity",
         pair.valid_pixels,
-        pair.left.len(),
-        100.0 * pair.valid_fraction()
+        100.0 * pair.valid_fraction(),
+        pair.measured_pixels,
+        100.0 * pair.measured_pixels as f64 / n as f64
     ));
     let r = w.add_reference(0.0, pair.left_camera, &pair.left, SlopeSource::FiniteDifference)?;
     w.add_derived(0.0, pair.right_camera, vec![r], Some(&pair.right_truth))?;
@@ -605,8 +653,8 @@ mod tests {
         let inf = f32::INFINITY;
         let disp = [3.0, 8.0, inf, 1.0, 0.5, 2.0, inf, 0.0, 3.0, 3.0, 3.0, inf];
         synthetic_folder(dir.path(), &disp);
-        let p = read_middlebury(dir.path()).unwrap();
-        assert_eq!(p.valid_pixels, 9);
+        let p = read_middlebury_with(dir.path(), FillUnknownDepth::None).unwrap();
+        assert_eq!((p.valid_pixels, p.measured_pixels), (9, 9));
         assert!((p.valid_fraction() - 9.0 / 12.0).abs() < 1e-12);
         let valid: Vec<bool> = p.left.valid.iter().map(|b| *b).collect();
         let want = [true, true, false, true, true, true, false, true, true, true, true, false];
@@ -620,6 +668,15 @@ mod tests {
         assert_eq!(p.right_truth.colour[5], [srgb_to_linear(101), srgb_to_linear(110), 1.0]);
         assert!(p.right_truth.known.all());
         assert_eq!(p.right_camera.pose.position, DVec3::new(0.05, 0.0, 0.0));
+        // The default fills each unknown pixel from its row's farther known
+        // neighbour: (2, 0) between d = 8 and 1 takes 1; (2, 1) between 2
+        // and 0 takes 0; (3, 2) only has 3 on its left.
+        let b = read_middlebury(dir.path()).unwrap();
+        assert_eq!((b.valid_pixels, b.measured_pixels, b.fill), (12, 9, FillUnknownDepth::Background));
+        assert_eq!(b.left.z[2], p.calib.depth_m(1.0).unwrap());
+        assert_eq!(b.left.z[b.left.index(2, 1)], p.calib.depth_m(0.0).unwrap());
+        assert_eq!(b.left.z[b.left.index(3, 2)], p.calib.depth_m(3.0).unwrap());
+        assert_eq!(b.right_truth.seen, p.right_truth.seen, "seen from the measured disparity");
     }
 
     #[test]

@@ -7,9 +7,19 @@
 //! - [`middlebury`]: Middlebury 2014 rectified stereo pairs
 //!   (left view + disparity → reference, right view → derived frame with truth).
 //! - [`pfm`]: the Portable Float Map reader they need.
+//! - [`depth_fill`]: `--fill-unknown-depth`, unknown depth filled from the
+//!   background side before the warp.
+//! - [`visibility`]: the truth's `seen` mask of a stereo pair, from the
+//!   disparity.
 
+pub mod depth_fill;
 pub mod middlebury;
 pub mod pfm;
+pub mod visibility;
 
-pub use middlebury::{Calib, ImportError, MiddleburyPair, import_middlebury, read_middlebury};
+pub use depth_fill::FillUnknownDepth;
+pub use middlebury::{
+    Calib, ImportError, MiddleburyPair, import_middlebury, import_middlebury_with, read_middlebury,
+    read_middlebury_with,
+};
 pub use pfm::{PfmError, PfmImage, read_pfm};

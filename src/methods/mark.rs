@@ -10,7 +10,9 @@
 //!   reconstruction it runs after *each* reference warp, as in the paper
 //!   (the golden model's own loop); after another method's reconstruction
 //!   it runs once per reference epipole, in warp order, on the finished
-//!   frame.
+//!   frame. Either way the fallback pass (`golden::fallback_fill`) follows
+//!   it after the last warp, as the golden model's `fallback_fill` knob
+//!   (default on) says.
 //!
 //! Rules: the golden configuration is the default (`docs/golden.md`), or
 //! the one given to [`Reconstruction::with_golden_config`] (`postwarp
@@ -22,6 +24,7 @@
 
 use super::{Counters, HoleFill, Input, MethodInfo, Prepared, Reconstruction};
 use crate::golden::config::{GoldenConfig, Reconstruction as Path};
+use crate::golden::fallback_fill::{FallbackStats, fallback_fill};
 use crate::golden::frame::{GoldenStats, PreparedReference, Warper, prepare_reference};
 use crate::golden::hole_fill::{HoleFillParams, hole_fill};
 use crate::golden::planes::DestPlanes;
@@ -46,7 +49,7 @@ pub struct MarkGeneral {
 }
 
 fn config(base: &GoldenConfig, path: Path, hole_fill: bool) -> GoldenConfig {
-    GoldenConfig { reconstruction: path, hole_fill, ..base.clone() }
+    GoldenConfig { reconstruction: path, hole_fill, fallback_fill: hole_fill && base.fallback_fill, ..base.clone() }
 }
 
 fn prepared<'a>(input: &'a Input) -> Vec<&'a PreparedReference> {
@@ -78,6 +81,8 @@ fn run(
             extra: [
                 ("filled".to_string(), json!(frame.stats.hole_fill_filled)),
                 ("unreached".to_string(), json!(frame.stats.hole_fill_unreached)),
+                ("fallback_filled".to_string(), json!(frame.stats.fallback_filled)),
+                ("fallback_unreached".to_string(), json!(frame.stats.fallback_unreached)),
             ]
             .into_iter()
             .collect(),
@@ -174,7 +179,7 @@ impl HoleFill for Epipolar {
     fn info(&self) -> MethodInfo {
         MethodInfo {
             name: "epipolar",
-            description: "Mark's epipolar hole fill: propagate background colour from the previous line in the inverse occlusion-compatible order, blurred by 3 (5 far) taps",
+            description: "Mark's epipolar hole fill: propagate background colour from the previous line in the inverse occlusion-compatible order, blurred by 3 (5 far) taps; after the last warp the same pass in reverse order fills what it could not reach",
             paper: "003 Mark et al. TR98-011 §9",
             primitive: "",
             default_hole_fill: "",
@@ -195,9 +200,17 @@ impl HoleFill for Epipolar {
             filled += st.filled;
             unreached += st.unreached;
         }
+        let mut fallback = FallbackStats::default();
+        if g.fallback_fill
+            && let Some(last) = input.cmd.warps.last()
+        {
+            fallback = fallback_fill(d, &last.setup.epipole_derived, &p).0;
+        }
         let mut extra = Map::new();
         extra.insert("filled".into(), json!(filled));
         extra.insert("unreached".into(), json!(unreached));
+        extra.insert("fallback_filled".into(), json!(fallback.filled));
+        extra.insert("fallback_unreached".into(), json!(fallback.unreached));
         Counters { primitives: 0, extra }
     }
 }

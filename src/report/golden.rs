@@ -51,6 +51,16 @@ pub struct GoldenCounters<N> {
     pub hole_fill_filled: N,
     /// Hole samples no pass reached, summed over passes (samples).
     pub hole_fill_unreached: N,
+    /// Empty samples the fallback pass filled (samples). Absent from
+    /// reports written before it (0).
+    #[serde(default)]
+    pub fallback_filled: N,
+    /// Empty samples the fallback pass left empty (samples).
+    #[serde(default)]
+    pub fallback_unreached: N,
+    /// Display pixels holding a sample the fallback pass filled (pixels).
+    #[serde(default)]
+    pub unseen_pixels: N,
     /// Derived samples holding hole fill at the end (samples).
     pub hole_samples: N,
     /// Derived samples with neither surface nor fill (samples).
@@ -84,6 +94,9 @@ impl GoldenCounters<u64> {
             mesh_over_splat: s.mesh_over_splat,
             hole_fill_filled: s.hole_fill_filled,
             hole_fill_unreached: s.hole_fill_unreached,
+            fallback_filled: s.fallback_filled,
+            fallback_unreached: s.fallback_unreached,
+            unseen_pixels: s.unseen_pixels,
             hole_samples: s.hole_samples,
             empty_samples: s.empty_samples,
             fragments_per_pixel: s.fragments_per_pixel.clone(),
@@ -149,6 +162,17 @@ pub fn counter_keys() -> Vec<KeyDoc> {
         count("mesh_over_splat", "samples", "mesh candidates that replaced a splat at the same depth"),
         count("hole_fill_filled", "samples", "hole samples filled, summed over hole-fill passes"),
         count("hole_fill_unreached", "samples", "hole samples a pass could not reach, summed over passes"),
+        count(
+            "fallback_filled",
+            "samples",
+            "empty samples the fallback pass filled after the last warp (`fallback_fill`, `docs/golden.md`)",
+        ),
+        count("fallback_unreached", "samples", "empty samples the fallback pass could not reach (left empty)"),
+        count(
+            "unseen_pixels",
+            "pixels",
+            "display pixels holding a sample the fallback pass filled: seen by no reference along the epipolar passes",
+        ),
         count("hole_samples", "samples", "derived samples holding hole fill at the end"),
         count("empty_samples", "samples", "derived samples with neither a surface nor fill at the end (output black)"),
         hist(

@@ -223,8 +223,31 @@ pub struct HwCounters<N> {
     pub hole_fill_filled: N,
     /// Hole samples no tap reached, summed over passes (samples).
     pub hole_fill_unreached: N,
+    /// The fallback fill pass after the last warp. Absent from reports
+    /// written before it (read as zeros).
+    #[serde(default)]
+    pub fallback: Fallback<N>,
     /// Per unit, busy, stall and idle cycles (cycles).
     pub units: Units<UnitCycles<N>>,
+}
+
+/// The hole fill's fallback pass (`units::fallback_fill`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Fallback<N> {
+    /// Cycles of the pass (cycles).
+    pub cycles: N,
+    /// Samples visited: those of tiles holding an empty sample (samples).
+    pub visits: N,
+    /// Empty samples filled (samples).
+    pub filled: N,
+    /// Empty samples left empty (samples).
+    pub unreached: N,
+    /// Destination tiles brought into the cache (tiles).
+    pub tile_loads: N,
+    /// Destination tiles changed and written back (tiles).
+    pub tiles_written: N,
+    /// Display pixels holding a sample the pass filled (pixels).
+    pub unseen_pixels: N,
 }
 
 impl HwCounters<u64> {
@@ -298,6 +321,15 @@ impl HwCounters<u64> {
             empty_samples: s.empty_samples,
             hole_fill_filled: s.hole_fill_filled,
             hole_fill_unreached: s.hole_fill_unreached,
+            fallback: Fallback {
+                cycles: s.fallback_cycles,
+                visits: s.fallback_visits,
+                filled: s.fallback_filled,
+                unreached: s.fallback_unreached,
+                tile_loads: s.fallback_tile_loads,
+                tiles_written: s.fallback_tiles_written,
+                unseen_pixels: s.unseen_pixels,
+            },
             units: Units {
                 fetch: u("fetch"),
                 transform: u("transform"),
@@ -535,6 +567,34 @@ fn units_keys() -> Vec<KeyDoc> {
     ]
 }
 
+fn fallback_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "cycles",
+            "cycles",
+            Reduce::Sum,
+            "cycles from the end of the last warp to the pass's last write-back queued (the hole fill and the packer \
+             work, every other unit idle)",
+        ),
+        scalar("visits", "samples", Reduce::Sum, "samples the cursor visited: those of tiles holding an empty sample"),
+        scalar("filled", "samples", Reduce::Sum, "empty samples the pass filled"),
+        scalar("unreached", "samples", Reduce::Sum, "empty samples no tap reached (left empty, black)"),
+        scalar(
+            "tile_loads",
+            "tiles",
+            Reduce::Sum,
+            "destination tiles brought into the cache by the pass (packed loads and reloads after a spill)",
+        ),
+        scalar("tiles_written", "tiles", Reduce::Sum, "destination tiles the pass changed, re-packed and wrote back"),
+        scalar(
+            "unseen_pixels",
+            "pixels",
+            Reduce::Sum,
+            "display pixels holding a sample the pass filled: seen by no reference along the epipolar passes",
+        ),
+    ]
+}
+
 const fn list(key: &'static str, unit: &'static str, meaning: &'static str) -> KeyDoc {
     KeyDoc { key, unit, reduce: Reduce::Sum, shape: Shape::List, meaning }
 }
@@ -652,6 +712,13 @@ pub fn counter_keys() -> Vec<KeyDoc> {
         ),
         scalar("hole_fill_filled", "samples", Reduce::Sum, "hole samples filled, summed over hole-fill passes"),
         scalar("hole_fill_unreached", "samples", Reduce::Sum, "hole samples no tap reached, summed over passes"),
+        nested(
+            "fallback",
+            Reduce::Sum,
+            fallback_keys,
+            "the hole fill's fallback pass after the last warp (`fallback_fill`, `docs/units.md`); all 0 when no \
+             sample was empty or the knob is off",
+        ),
         nested(
             "units",
             Reduce::Sum,

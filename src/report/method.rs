@@ -127,6 +127,12 @@ pub fn hole_fill_keys() -> Vec<KeyDoc> {
     vec![
         sum("filled", "samples", "hole samples filled"),
         sum("unreached", "samples", "hole samples no pass could reach (left empty)"),
+        sum(
+            "fallback_filled",
+            "samples",
+            "epipolar: empty samples the fallback pass filled after the last warp (`fallback_fill`)",
+        ),
+        sum("fallback_unreached", "samples", "epipolar: empty samples the fallback pass could not reach (left empty)"),
         sum("left_empty", "samples", "didyk-inpaint: empty samples with no real 8-neighbour (left empty)"),
         peak("levels", "levels", "pull-push: pyramid levels, level 0 included (0 with nothing to fill)"),
         sum("replaced", "samples", "stretch: fills replaced by a later pass with a nearer source"),

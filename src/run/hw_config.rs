@@ -18,6 +18,7 @@ pub fn golden_config_for(hw: &EngineConfig) -> GoldenConfig {
         better_margin: hw.better_margin,
         abuffer_fragments: hw.abuffer_fragments,
         hole_fill: true,
+        fallback_fill: hw.fallback_fill,
         hole_far_distance: hw.hole_far_distance,
         hole_far_offset: hw.hole_far_offset,
         hole_max_distance: hw.hole_max_distance,

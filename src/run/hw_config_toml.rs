@@ -15,6 +15,7 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
     let int = || v.as_integer().filter(|&n| n >= 0).map(|n| n as u64).ok_or("expected a non-negative integer");
     let u32v = || int().and_then(|n| u32::try_from(n).map_err(|_| "expected an integer below 2^32"));
     let real = || v.as_float().or_else(|| v.as_integer().map(|n| n as f64)).ok_or("expected a number");
+    let boolean = || v.as_bool().ok_or("expected true or false");
     match key {
         "supersample" => c.supersample = u32v()?,
         "abuffer_fragments" => c.abuffer_fragments = u32v()?,
@@ -43,6 +44,7 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
         "hole_far_offset" => c.hole_far_offset = u32v()?,
         "hole_max_distance" => c.hole_max_distance = u32v()?,
         "hole_fill_per_cycle" => c.hole_fill_per_cycle = u32v()?,
+        "fallback_fill" => c.fallback_fill = boolean()?,
         _ => return Err(format!("unknown knob (known: {})", KNOBS.iter().map(|k| k.0).collect::<Vec<_>>().join(", "))),
     }
     Ok(())
@@ -123,6 +125,7 @@ pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
         "hole_far_offset" => i(c.hole_far_offset.into()),
         "hole_max_distance" => i(c.hole_max_distance.into()),
         "hole_fill_per_cycle" => i(c.hole_fill_per_cycle.into()),
+        "fallback_fill" => V::Boolean(c.fallback_fill),
         _ => return None,
     })
 }
@@ -131,6 +134,7 @@ fn json_of(v: &toml::Value) -> serde_json::Value {
     match v {
         toml::Value::Integer(n) => serde_json::Value::from(*n),
         toml::Value::Float(x) => serde_json::Value::from(*x),
+        toml::Value::Boolean(b) => serde_json::Value::Bool(*b),
         other => serde_json::Value::String(other.to_string()),
     }
 }
@@ -158,7 +162,8 @@ pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::
                 toml::Value::Integer(n.as_i64().ok_or_else(|| anyhow!("{k}: {n} is too large"))?)
             }
             serde_json::Value::Number(n) => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
-            other => bail!("{k}: {other} is not a number"),
+            serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
+            other => bail!("{k}: {other} is not a number or a boolean"),
         };
         set(&mut c, current_knob_name(k), &t).map_err(|e| anyhow!("{k}: {e}"))?;
     }
@@ -208,9 +213,12 @@ mod tests {
     #[test]
     fn every_knob_is_settable_and_reported() {
         let mut c = EngineConfig::default();
-        for (name, _, _) in KNOBS {
-            set(&mut c, name, &toml::Value::Integer(1)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for (name, unit, _) in KNOBS {
+            let v = if *unit == "bool" { toml::Value::Boolean(false) } else { toml::Value::Integer(1) };
+            set(&mut c, name, &v).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
+        assert!(!c.fallback_fill);
+        assert_eq!(set(&mut c, "fallback_fill", &toml::Value::Integer(1)), Err("expected true or false".into()));
         let j = to_json(&EngineConfig::default());
         assert_eq!(j.as_object().unwrap().len(), KNOBS.len());
         assert_eq!(j["dest_cache_bytes"], 589_824);

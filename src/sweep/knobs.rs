@@ -31,6 +31,7 @@ pub const GOLDEN_TO_HARDWARE: &[(&str, &str)] = &[
     ("hole_far_distance", "hole_far_distance"),
     ("hole_far_offset", "hole_far_offset"),
     ("hole_max_distance", "hole_max_distance"),
+    ("fallback_fill", "fallback_fill"),
 ];
 
 /// The hardware knob a golden knob sets, if any.

@@ -110,7 +110,8 @@ pub fn read_truth_image(path: &Path, expected: (u32, u32)) -> Result<TruthImage,
 pub fn decode_truth_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<TruthImage, TraceError> {
     let ch = Channels::decode(bytes, file, expected)?;
     let nondiffuse = ch.bits("nondiffuse")?;
-    Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()?, nondiffuse })
+    let seen = ch.bits("seen")?;
+    Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()?, nondiffuse, seen })
 }
 
 /// Write a reference image. Slope channels are written only for
@@ -140,6 +141,9 @@ pub fn write_truth_image(path: &Path, t: &TruthImage) -> Result<(), TraceError> 
     let mut list = rgb_channels(&t.colour);
     if !t.known.all() {
         list.push(mask_channel(&t.known));
+    }
+    if let Some(m) = &t.seen {
+        list.push(bit_channel("seen", m));
     }
     if let Some(m) = &t.nondiffuse {
         list.push(bit_channel("nondiffuse", m));

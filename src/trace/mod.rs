@@ -141,6 +141,10 @@ pub struct TruthImage {
     /// surface (channel `nondiffuse`; `None` if the file has none): the
     /// mask `docs/non-diffuse.md` scores on its own.
     pub nondiffuse: Option<BitVec>,
+    /// Set where some reference sees the surface the pixel shows (channel
+    /// `seen`; `None` if the file has none: every pixel counts as seen):
+    /// the visibility term of the common mask (`docs/metrics.md`).
+    pub seen: Option<BitVec>,
 }
 
 impl Trace {

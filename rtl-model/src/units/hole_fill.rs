@@ -61,6 +61,10 @@
 //!    tap miss is not counted again). Every visit, hole or surface, costs
 //!    a slot.
 //!
+//! 8. Fallback mode ([`HoleFillUnit::new_fallback`], control in
+//!    `units::fallback_fill`): the same rules 2–6 over the reverse of the
+//!    forward order, "visited earlier" meaning a higher forward rank.
+//!
 //! Not modelled: the fixed-point widths of the planes (plane 6 is `f32`,
 //! the accumulation `f64`, the distance 8 bits wide — the golden model's
 //! arithmetic, so that the two agree bit for bit), the divider's latency
@@ -76,7 +80,7 @@ use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::mem::MemPort;
-use crate::traversal::{Line, Major, OrderKey, forward_lines};
+use crate::traversal::{Line, Major, OrderKey, forward_lines, reverse_lines};
 
 /// Knobs of the pass (the golden configuration's `hole_far_distance`,
 /// `hole_far_offset`, `hole_max_distance`).
@@ -126,6 +130,9 @@ pub struct HoleFillUnit {
     params: HoleFillParams,
     lines: Vec<Line>,
     order: OrderKey,
+    /// The fallback mode (`units::fallback_fill`): the lines in reverse
+    /// forward order, "visited earlier" = higher forward rank.
+    reverse: bool,
     counters: HoleFillCounters,
 }
 
@@ -139,7 +146,21 @@ impl HoleFillUnit {
             params: p,
             lines: forward_lines(width, height, epipole_derived),
             order: OrderKey::new(width, height, epipole_derived),
+            reverse: false,
             counters: HoleFillCounters::default(),
+        }
+    }
+
+    /// The unit in its fallback mode (`units::fallback_fill`): the same
+    /// datapath over the reverse of the forward order
+    /// ([`crate::traversal::reverse_lines`]: each line's previous line is
+    /// the forward order's next one), a tap counting only if its forward
+    /// rank is *higher* than the sample's.
+    pub fn new_fallback(width: u32, height: u32, epipole_derived: &Epipole, p: HoleFillParams) -> HoleFillUnit {
+        HoleFillUnit {
+            lines: reverse_lines(width, height, epipole_derived),
+            reverse: true,
+            ..HoleFillUnit::new(width, height, epipole_derived, p)
         }
     }
 
@@ -193,7 +214,9 @@ impl HoleFillUnit {
         }
         let (tx, ty) = (tx as u32, ty as u32);
         let j = f.index(tx, ty);
-        (self.order.key(tx, ty) < own_rank && f.fill_valid[j]).then_some(j)
+        let key = self.order.key(tx, ty);
+        let earlier = if self.reverse { key > own_rank } else { key < own_rank };
+        (earlier && f.fill_valid[j]).then_some(j)
     }
 
     /// Process sample `(x, y)` of `line` (rules 2–6). Samples must come in

@@ -18,6 +18,7 @@ pub mod abuffer;
 pub mod composite;
 pub mod dest_cache;
 pub mod display;
+pub mod fallback_fill;
 pub mod fetch;
 pub mod hole_fill;
 pub mod kernel_setup;
