@@ -38,7 +38,7 @@ fn input<'a>(
     known: &'a BitVec,
     covered: Option<&'a BitVec>,
 ) -> MetricInput<'a> {
-    MetricInput { width: w, height: h, image, truth, known, covered }
+    MetricInput { width: w, height: h, image, truth, known, covered, common: None }
 }
 
 #[test]
@@ -238,4 +238,62 @@ fn docs_describe_every_key() {
         assert!(doc.contains(&format!("`{}`", d.key)), "docs/metrics.md does not mention `{}`", d.key);
     }
     assert!(doc.contains("67"), "docs/metrics.md must give FLIP's pixels per degree");
+}
+
+/// The common mask is exactly known ∧ seen ∧ every covered mask, and the
+/// `*_common` keys score exactly its pixels: a constructed 6x5 case where
+/// each term removes different pixels, an error planted on each removed
+/// pixel (it must not count) and a known error on the mask.
+#[test]
+fn the_common_mask_is_the_intersection_it_claims() {
+    use postwarp::metrics::common_mask;
+    let (w, h) = (24u32, 20u32);
+    let n = (w * h) as usize;
+    let mut rng = Lcg(15);
+    let mut bits = |p: u32| -> BitVec { (0..n).map(|_| rng.next() % 100 >= p).collect() };
+    let (known, seen, cov_a, cov_b) = (bits(10), bits(20), bits(15), bits(25));
+    let common = common_mask(&known, Some(&seen), &[&cov_a, &cov_b]).unwrap();
+    let mut expected = 0;
+    for i in 0..n {
+        let want = known[i] && seen[i] && cov_a[i] && cov_b[i];
+        assert_eq!(common[i], want, "pixel {i}");
+        expected += want as u64;
+    }
+    // Each term does remove pixels here, so a missing term would show.
+    for term in [&known, &seen, &cov_a, &cov_b] {
+        assert!((0..n).any(|i| !term[i] && common_without(i, term, &[&known, &seen, &cov_a, &cov_b])));
+    }
+    // Without `seen` the mask is known ∧ covered.
+    let no_seen = common_mask(&known, None, &[&cov_a]).unwrap();
+    assert_eq!(no_seen, known.clone() & &cov_a);
+
+    // Truth grey 100; the image is 6 codes off on the common mask and 90
+    // codes off everywhere else.
+    let truth = vec![[srgb_to_linear(100); 3]; n];
+    let image: Vec<[f32; 3]> = (0..n).map(|i| [srgb_to_linear(if common[i] { 106 } else { 10 }); 3]).collect();
+    let q = evaluate(&MetricInput {
+        width: w,
+        height: h,
+        image: &image,
+        truth: &truth,
+        known: &known,
+        covered: Some(&cov_a),
+        common: Some(&(seen.clone() & &cov_a & &cov_b)),
+    })
+    .unwrap();
+    assert_eq!(q.common_pixels, expected);
+    let want = 10.0 * (255.0f64 * 255.0 / 36.0).log10();
+    assert!((q.psnr_rgb_common_db - want).abs() < 1e-9, "{} vs {want}", q.psnr_rgb_common_db);
+    assert!(q.psnr_rgb_db < 20.0, "the whole image sees the 90-code error: {}", q.psnr_rgb_db);
+    // A mask of another size is an error naming it.
+    let short = BitVec::repeat(true, n - 1);
+    let e = common_mask(&known, Some(&short), &[]).unwrap_err();
+    assert!(e.to_string().contains("seen mask has 479 entries; expected 480"), "{e}");
+    let e = common_mask(&known, None, &[&cov_a, &short]).unwrap_err();
+    assert!(e.to_string().contains("covered mask"), "{e}");
+}
+
+/// Pixel `i` is clear in `term` and set in every other mask of `all`.
+fn common_without(i: usize, term: &BitVec, all: &[&BitVec]) -> bool {
+    all.iter().all(|m| std::ptr::eq(*m, term) || m[i])
 }

@@ -23,7 +23,9 @@ pub struct Args {
     /// Methods to run, comma-separated [default: every method].
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
-    /// Hole fills: `default` (each method's own), `all`, or names, comma-separated.
+    /// Hole fills, comma-separated: `default` (each method's own), `all`, or
+    /// names; a fill listed twice for a method (`default,epipolar` for
+    /// mark-aa) runs once.
     #[arg(long, value_delimiter = ',', default_value = "default")]
     pub hole_fills: Vec<String>,
     /// Runs per frame; `host_ms` is their median.
@@ -40,11 +42,19 @@ pub fn pairs(a: &Args) -> anyhow::Result<Vec<Pair>> {
     };
     let mut out = Vec::new();
     for n in &names {
-        let fills: Vec<String> = match a.hole_fills.as_slice() {
-            [d] if d == "default" => vec![reconstruction(n)?.info().default_hole_fill.to_string()],
-            [d] if d == "all" => hole_fills().iter().map(|f| f.info().name.to_string()).collect(),
-            list => list.to_vec(),
-        };
+        let mut fills: Vec<String> = Vec::new();
+        for f in &a.hole_fills {
+            let add: Vec<String> = match f.as_str() {
+                "default" => vec![reconstruction(n)?.info().default_hole_fill.to_string()],
+                "all" => hole_fills().iter().map(|f| f.info().name.to_string()).collect(),
+                name => vec![name.to_string()],
+            };
+            for f in add {
+                if !fills.contains(&f) {
+                    fills.push(f);
+                }
+            }
+        }
         for f in fills {
             out.push((reconstruction(n)?, hole_fill(&f)?));
         }

@@ -65,6 +65,10 @@ pub struct MetricInput<'a> {
     /// Set where the warp covered the pixel with a real sample (not hole fill);
     /// `None` = every pixel covered.
     pub covered: Option<&'a BitVec>,
+    /// The common mask the `*_common` keys score (intersected with `known`):
+    /// the pixels every compared method covers and a reference sees
+    /// (`docs/metrics.md`). `None` = known ∧ covered.
+    pub common: Option<&'a BitVec>,
 }
 
 /// The scores of one image against its ground truth. Field names are the
@@ -95,12 +99,23 @@ pub struct Quality {
     /// Share of known pixels with CIE76 ΔE*ab > 20 (0–1).
     #[serde(serialize_with = "serialize_finite_or_null")]
     pub delta_e20_fraction: f64,
+    /// RGB PSNR over the common mask (dB).
+    #[serde(serialize_with = "serialize_finite_or_null")]
+    pub psnr_rgb_common_db: f64,
+    /// Mean luma SSIM over window centres in the common mask (1 = identical).
+    #[serde(serialize_with = "serialize_finite_or_null")]
+    pub ssim_luma_common: f64,
+    /// Mean LDR-FLIP over the common mask (0 = identical).
+    #[serde(serialize_with = "serialize_finite_or_null")]
+    pub flip_mean_common: f64,
     /// Pixels excluded because the truth is unknown.
     pub excluded_pixels: u64,
     /// Known pixels the warp covered with a real sample.
     pub covered_pixels: u64,
     /// Known pixels (the pixels every metric scores).
     pub scored_pixels: u64,
+    /// Pixels in the common mask (what the `*_common` keys score).
+    pub common_pixels: u64,
 }
 
 /// Why [`evaluate`] cannot score an input.
@@ -109,6 +124,9 @@ pub enum MetricError {
     /// A buffer's length is not `width·height`.
     #[error("{what} has {got} entries; expected {expected} ({width}x{height} pixels)")]
     SizeMismatch { what: &'static str, got: usize, expected: usize, width: u32, height: u32 },
+    /// A mask to intersect has another length than the known mask.
+    #[error("{what} has {got} entries; expected {expected}, as the known mask")]
+    MaskMismatch { what: &'static str, got: usize, expected: usize },
     /// Width or height is zero.
     #[error("image is {width}x{height}; expected at least 1x1 pixels")]
     Empty { width: u32, height: u32 },
@@ -165,6 +183,21 @@ const DOCS: &[MetricDoc] = &[
         description: "share of known pixels whose CIELAB (D65) CIE76 colour difference exceeds 20, 0 to 1",
     },
     MetricDoc {
+        key: "psnr_rgb_common_db",
+        unit: "dB",
+        description: "psnr_rgb_db on the common mask: known pixels every compared method covers and a reference sees",
+    },
+    MetricDoc {
+        key: "ssim_luma_common",
+        unit: "—",
+        description: "ssim_luma averaged over window centres in the common mask, the image taking the truth outside it",
+    },
+    MetricDoc {
+        key: "flip_mean_common",
+        unit: "—",
+        description: "flip_mean averaged over the common mask, the image taking the truth outside it, 0 to 1",
+    },
+    MetricDoc {
         key: "excluded_pixels",
         unit: "pixels",
         description: "pixels excluded because the ground truth is unknown",
@@ -175,6 +208,11 @@ const DOCS: &[MetricDoc] = &[
         description: "known pixels the warp covered with a real sample",
     },
     MetricDoc { key: "scored_pixels", unit: "pixels", description: "known pixels: the pixels every metric scores" },
+    MetricDoc {
+        key: "common_pixels",
+        unit: "pixels",
+        description: "pixels in the common mask: known, covered by every compared method, seen by a reference",
+    },
 ];
 
 /// Every [`Quality`] field (= `report.json` key) with its unit and a one-line
@@ -195,14 +233,13 @@ pub fn serialize_finite_or_null<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S
 /// the truth's (see the module documentation).
 pub(crate) fn encode_pair(input: &MetricInput) -> (Vec<[u8; 3]>, Vec<[u8; 3]>) {
     let truth: Vec<[u8; 3]> = input.truth.iter().map(|c| c.map(linear_to_srgb8)).collect();
-    let image: Vec<[u8; 3]> = input
-        .image
-        .iter()
-        .zip(&truth)
-        .enumerate()
-        .map(|(i, (c, t))| if input.known[i] { c.map(linear_to_srgb8) } else { *t })
-        .collect();
+    let image = outside_as_truth(input.image, &truth, input.known);
     (image, truth)
+}
+
+/// `image` as 8-bit sRGB codes, taking `truth`'s codes where `mask` is clear.
+fn outside_as_truth(image: &[[f32; 3]], truth: &[[u8; 3]], mask: &BitVec) -> Vec<[u8; 3]> {
+    image.iter().zip(truth).enumerate().map(|(i, (c, t))| if mask[i] { c.map(linear_to_srgb8) } else { *t }).collect()
 }
 
 fn check(input: &MetricInput) -> Result<usize, MetricError> {
@@ -220,6 +257,7 @@ fn check(input: &MetricInput) -> Result<usize, MetricError> {
         ("truth", input.truth.len()),
         ("known mask", input.known.len()),
         ("covered mask", input.covered.map_or(n, BitVec::len)),
+        ("common mask", input.common.map_or(n, BitVec::len)),
     ];
     for (what, got) in lens {
         if got != n {
@@ -227,6 +265,22 @@ fn check(input: &MetricInput) -> Result<usize, MetricError> {
         }
     }
     Ok(n)
+}
+
+/// The common mask of a comparison (`docs/metrics.md`): the pixels the truth
+/// knows, that a reference sees (`seen`; `None` = every pixel) and that every
+/// compared image covers with a real sample (`covered`, one mask per
+/// image). Errors when a mask's length is not `known`'s.
+pub fn common_mask(known: &BitVec, seen: Option<&BitVec>, covered: &[&BitVec]) -> Result<BitVec, MetricError> {
+    let n = known.len();
+    let mut m = known.clone();
+    for (what, mask) in seen.map(|s| ("seen mask", s)).into_iter().chain(covered.iter().map(|c| ("covered mask", *c))) {
+        if mask.len() != n {
+            return Err(MetricError::MaskMismatch { what, got: mask.len(), expected: n });
+        }
+        m &= mask;
+    }
+    Ok(m)
 }
 
 /// Score `input.image` against `input.truth`. Errors (never panics) when a
@@ -243,21 +297,48 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     let hole_fraction =
         if scored_pixels == 0 { f64::NAN } else { (scored_pixels - covered_pixels) as f64 / scored_pixels as f64 };
 
+    let common: BitVec = match input.common {
+        Some(c) => known.clone() & c,
+        None => covered_known.clone(),
+    };
+
     let (image8, truth8) = encode_pair(input);
     let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
     let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
+    let (w, h) = (input.width as usize, input.height as usize);
+    let ssim_luma = ssim::ssim_mean(w, h, &image_luma, &truth_luma, known);
+    let flip_mean = flip::flip_mean(input.width, input.height, &image8, &truth8, known);
+    let psnr_rgb_db = psnr::psnr_rgb(&image8, &truth8, known);
+    // The neighbourhood metrics on the common mask see the truth outside it,
+    // as they see it on unknown pixels; a mask of every known pixel is the
+    // whole-image case.
+    let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = if common == *known {
+        (psnr_rgb_db, ssim_luma, flip_mean)
+    } else {
+        let common8 = outside_as_truth(input.image, &truth8, &common);
+        let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
+        (
+            psnr::psnr_rgb(&common8, &truth8, &common),
+            ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common),
+            flip::flip_mean(input.width, input.height, &common8, &truth8, &common),
+        )
+    };
 
     Ok(Quality {
-        psnr_rgb_db: psnr::psnr_rgb(&image8, &truth8, known),
+        psnr_rgb_db,
         psnr_rgb_covered_db: psnr::psnr_rgb(&image8, &truth8, &covered_known),
         psnr_luma_db: psnr::psnr_plane(&image_luma, &truth_luma, known),
-        ssim_luma: ssim::ssim_mean(input.width as usize, input.height as usize, &image_luma, &truth_luma, known),
-        flip_mean: flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+        ssim_luma,
+        flip_mean,
         hole_fraction,
         delta_e20_fraction: delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
+        psnr_rgb_common_db,
+        ssim_luma_common,
+        flip_mean_common,
         excluded_pixels: (n as u64) - scored_pixels,
         covered_pixels,
         scored_pixels,
+        common_pixels: common.count_ones() as u64,
     })
 }
 
@@ -280,14 +361,18 @@ mod tests {
             flip_mean: 0.1,
             hole_fraction: 0.2,
             delta_e20_fraction: 0.3,
+            psnr_rgb_common_db: 7.0,
+            ssim_luma_common: 0.6,
+            flip_mean_common: 0.2,
             excluded_pixels: 4,
             covered_pixels: 5,
             scored_pixels: 6,
+            common_pixels: 3,
         };
         let v = serde_json::to_value(&q).unwrap();
         let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
         let mut documented: Vec<&str> = describe().iter().map(|d| d.key).collect();
-        assert_eq!(documented.len(), 10);
+        assert_eq!(documented.len(), 14);
         // serde_json's map is sorted by key unless preserve_order is on.
         let mut sorted_keys = keys.clone();
         sorted_keys.sort_unstable();
@@ -308,9 +393,13 @@ mod tests {
             flip_mean: 0.0,
             hole_fraction: 0.0,
             delta_e20_fraction: 0.0,
+            psnr_rgb_common_db: f64::NAN,
+            ssim_luma_common: f64::NAN,
+            flip_mean_common: f64::NAN,
             excluded_pixels: 0,
             covered_pixels: 0,
             scored_pixels: 1,
+            common_pixels: 0,
         };
         let s = serde_json::to_string(&q).unwrap();
         assert!(s.contains("\"psnr_rgb_db\":null"), "{s}");
@@ -323,7 +412,15 @@ mod tests {
         let image = [grey(10), grey(20)];
         let truth = [grey(200), grey(210)];
         let known: BitVec = [true, false].into_iter().collect();
-        let input = MetricInput { width: 2, height: 1, image: &image, truth: &truth, known: &known, covered: None };
+        let input = MetricInput {
+            width: 2,
+            height: 1,
+            image: &image,
+            truth: &truth,
+            known: &known,
+            covered: None,
+            common: None,
+        };
         let (i8, t8) = encode_pair(&input);
         assert_eq!(i8, vec![[10; 3], [210; 3]]);
         assert_eq!(t8, vec![[200; 3], [210; 3]]);
@@ -334,7 +431,8 @@ mod tests {
         let px = vec![[0.0f32; 3]; 6];
         let known = BitVec::repeat(true, 6);
         let short = BitVec::repeat(true, 5);
-        let ok = MetricInput { width: 3, height: 2, image: &px, truth: &px, known: &known, covered: None };
+        let ok =
+            MetricInput { width: 3, height: 2, image: &px, truth: &px, known: &known, covered: None, common: None };
         assert_eq!(check(&ok), Ok(6));
         let e = check(&MetricInput { covered: Some(&short), ..ok }).unwrap_err();
         assert!(matches!(e, MetricError::SizeMismatch { what: "covered mask", got: 5, expected: 6, .. }), "{e}");

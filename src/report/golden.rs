@@ -225,9 +225,35 @@ pub struct GoldenFrame {
     pub pixels: Pixels<u64>,
     /// Host time of the frame (ms).
     pub host_ms: f64,
+    /// Pixels of the derived frame (pixels). Absent from older reports.
+    #[serde(default)]
+    pub display_pixels: u64,
+    /// `unseen_pixels / display_pixels` (fraction).
+    #[serde(default)]
+    pub unseen_fraction: Option<f64>,
     /// Counters.
     #[serde(flatten)]
     pub counters: GoldenCounters<u64>,
+}
+
+impl GoldenFrame {
+    /// A frame's entry: `unseen_fraction` derived from the counters.
+    pub fn new(
+        index: usize,
+        scores: Scores,
+        pixels: Pixels<u64>,
+        host_ms: f64,
+        display_pixels: u64,
+        counters: GoldenCounters<u64>,
+    ) -> GoldenFrame {
+        let unseen_fraction = unseen_fraction(counters.unseen_pixels as f64, display_pixels as f64);
+        GoldenFrame { index, scores, pixels, host_ms, display_pixels, unseen_fraction, counters }
+    }
+}
+
+/// The never-seen share: `unseen / display` (`None` without pixels).
+fn unseen_fraction(unseen: f64, display: f64) -> Option<f64> {
+    (display > 0.0).then(|| unseen / display)
 }
 
 /// `total` over frames.
@@ -240,6 +266,9 @@ pub struct GoldenTotal {
     pub pixels: Pixels<u64>,
     /// Host time (ms).
     pub host_ms: f64,
+    /// Pixels of the derived frames (pixels).
+    #[serde(default)]
+    pub display_pixels: u64,
     /// Counters.
     #[serde(flatten)]
     pub counters: GoldenCounters<u64>,
@@ -256,6 +285,12 @@ pub struct GoldenMean {
     pub pixels: Pixels<f64>,
     /// Host time per frame (ms).
     pub host_ms: f64,
+    /// Pixels per derived frame (pixels).
+    #[serde(default)]
+    pub display_pixels: f64,
+    /// The never-seen share from the summed counters (fraction).
+    #[serde(default)]
+    pub unseen_fraction: Option<f64>,
     /// Counters per frame.
     #[serde(flatten)]
     pub counters: GoldenCounters<f64>,
@@ -294,9 +329,10 @@ impl GoldenReport {
         references: GoldenReferences,
         frames: Vec<GoldenFrame>,
     ) -> GoldenReport {
-        let (total, mean) = super::reduce(&frames, &frame_keys(), |t| {
+        let (total, mut mean): (GoldenTotal, GoldenMean) = super::reduce(&frames, &frame_keys(), |t| {
             t.insert("frames".into(), frames.len().into());
         });
+        mean.unseen_fraction = unseen_fraction(mean.counters.unseen_pixels, mean.display_pixels);
         GoldenReport {
             report_version: REPORT_VERSION,
             kind: ReportKind::Golden,
@@ -320,6 +356,14 @@ pub fn frame_keys() -> Vec<KeyDoc> {
         "ms",
         Reduce::Sum,
         "host time of the golden model for this frame, one core (not deterministic)",
+    ));
+    k.push(scalar("display_pixels", "pixels", Reduce::Sum, "pixels of the derived frame"));
+    k.push(scalar(
+        "unseen_fraction",
+        "fraction",
+        Reduce::Derived,
+        "`unseen_pixels / display_pixels`: the share of the frame no reference saw along the epipolar passes (a \
+         border strip the fallback fill supplied), apart from the holes inside the image (`hole_fraction` counts both)",
     ));
     k.extend(counter_keys());
     k

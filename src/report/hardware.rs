@@ -375,6 +375,9 @@ pub struct HwRates {
     /// before every warp but the first and written after each in A-buffer
     /// format, the display reading the last (bytes/pixel).
     pub floor_bytes_per_display_pixel: Option<ByClient<f64>>,
+    /// Display pixels the fallback pass filled over display pixels: the
+    /// never-seen share, apart from holes inside the image (fraction).
+    pub unseen_fraction: Option<f64>,
 }
 
 fn ratio(a: f64, b: f64) -> Option<f64> {
@@ -428,6 +431,7 @@ impl HwRates {
                     output: d[d.len() - 1] / c.display_pixels,
                 }
             }),
+            unseen_fraction: ratio(c.fallback.unseen_pixels, c.display_pixels),
         }
     }
 }
@@ -791,6 +795,13 @@ pub fn rate_keys() -> Vec<KeyDoc> {
              `dest_packed_bytes`), and the display's read of the last, each over `display_pixels`; bursts not \
              rounded, so a run without spills can sit a little above it, and culling can read references below it",
         ),
+        scalar(
+            "unseen_fraction",
+            "fraction",
+            Reduce::Derived,
+            "`fallback.unseen_pixels / display_pixels`: the share of the frame no reference saw along the epipolar \
+             passes (a border strip), apart from the holes inside the image (`null` without pixels)",
+        ),
     ]
 }
 
@@ -824,6 +835,7 @@ mod tests {
         let rates = HwRates {
             bytes_per_display_pixel: Some(ByClient::default()),
             floor_bytes_per_display_pixel: Some(ByClient::default()),
+            unseen_fraction: Some(0.0),
             ..HwRates::default()
         };
         same_keys(&serde_json::to_value(rates).unwrap(), &rate_keys(), "rates");

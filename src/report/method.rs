@@ -294,6 +294,17 @@ impl MethodReport {
         }
     }
 
+    /// The same report with `total` and `mean` reduced again from `frames`
+    /// (after a comparison re-scored them on its common mask).
+    pub fn reduced_again(mut self) -> MethodReport {
+        let (total, mean) = super::reduce(&self.frames, &frame_keys(), |t| {
+            t.insert("frames".into(), self.frames.len().into());
+        });
+        self.total = total;
+        self.mean = mean;
+        self
+    }
+
     /// Mean over frames of reconstruction counter `name`, if every frame
     /// has it.
     pub fn mean_reconstruction_counter(&self, name: &str) -> Option<f64> {

@@ -28,6 +28,12 @@ pub struct Scores {
     pub hole_fraction: Option<f64>,
     /// Share of known pixels with ΔE*ab > 20 (fraction).
     pub delta_e20_fraction: Option<f64>,
+    /// RGB PSNR on the common mask (dB). Absent from older reports.
+    pub psnr_rgb_common_db: Option<f64>,
+    /// Mean luma SSIM on the common mask (1).
+    pub ssim_luma_common: Option<f64>,
+    /// Mean LDR-FLIP on the common mask (1).
+    pub flip_mean_common: Option<f64>,
 }
 
 /// The pixel counts behind the scores (`N` = `u64` in a frame and in
@@ -40,6 +46,8 @@ pub struct Pixels<N> {
     pub covered_pixels: Option<N>,
     /// Known pixels (pixels).
     pub scored_pixels: Option<N>,
+    /// Pixels of the common mask (pixels). Absent from older reports.
+    pub common_pixels: Option<N>,
 }
 
 fn finite(x: f64) -> Option<f64> {
@@ -58,6 +66,9 @@ impl Scores {
             flip_mean: finite(q.flip_mean),
             hole_fraction: finite(q.hole_fraction),
             delta_e20_fraction: finite(q.delta_e20_fraction),
+            psnr_rgb_common_db: finite(q.psnr_rgb_common_db),
+            ssim_luma_common: finite(q.ssim_luma_common),
+            flip_mean_common: finite(q.flip_mean_common),
         }
     }
 }
@@ -70,6 +81,7 @@ impl Pixels<u64> {
             excluded_pixels: Some(q.excluded_pixels),
             covered_pixels: Some(q.covered_pixels),
             scored_pixels: Some(q.scored_pixels),
+            common_pixels: Some(q.common_pixels),
         }
     }
 }

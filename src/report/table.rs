@@ -18,6 +18,8 @@ pub struct Row<'a> {
     pub scored_pixels: Option<f64>,
     /// Known pixels covered by real samples (pixels), if scored.
     pub covered_pixels: Option<f64>,
+    /// Pixels of the common mask (pixels), if scored.
+    pub common_pixels: Option<f64>,
     /// Host time (ms).
     pub host_ms: f64,
 }
@@ -41,7 +43,7 @@ fn cell(v: Option<f64>, decimals: usize, scale: f64) -> String {
 pub fn render(rows: &[Row]) -> String {
     let mut s = String::new();
     let _ = write!(s, "{:>6}", "frame");
-    for h in ["psnr_rgb", "psnr_cov", "psnr_luma", "ssim", "flip", "holes%", "dE>20%", "host_ms"] {
+    for h in ["psnr_rgb", "psnr_cov", "psnr_com", "psnr_luma", "ssim", "flip", "holes%", "dE>20%", "host_ms"] {
         let _ = write!(s, " {h:>10}");
     }
     s.push('\n');
@@ -50,6 +52,7 @@ pub fn render(rows: &[Row]) -> String {
         let cells = [
             psnr_cell(q.psnr_rgb_db, r.scored_pixels),
             psnr_cell(q.psnr_rgb_covered_db, r.covered_pixels),
+            psnr_cell(q.psnr_rgb_common_db, r.common_pixels),
             psnr_cell(q.psnr_luma_db, r.scored_pixels),
             cell(q.ssim_luma, 4, 1.0),
             cell(q.flip_mean, 4, 1.0),
@@ -76,6 +79,7 @@ pub fn golden_table(r: &GoldenReport) -> String {
             scores: &f.scores,
             scored_pixels: f.pixels.scored_pixels.map(|n| n as f64),
             covered_pixels: f.pixels.covered_pixels.map(|n| n as f64),
+            common_pixels: f.pixels.common_pixels.map(|n| n as f64),
             host_ms: f.host_ms,
         })
         .collect();
@@ -84,6 +88,7 @@ pub fn golden_table(r: &GoldenReport) -> String {
         scores: &r.mean.scores,
         scored_pixels: r.mean.pixels.scored_pixels,
         covered_pixels: r.mean.pixels.covered_pixels,
+        common_pixels: r.mean.pixels.common_pixels,
         host_ms: r.mean.host_ms,
     });
     render(&rows)
@@ -99,6 +104,7 @@ pub fn method_table(r: &MethodReport) -> String {
             scores: &f.scores,
             scored_pixels: f.pixels.scored_pixels.map(|n| n as f64),
             covered_pixels: f.pixels.covered_pixels.map(|n| n as f64),
+            common_pixels: f.pixels.common_pixels.map(|n| n as f64),
             host_ms: f.host_ms,
         })
         .collect();
@@ -107,6 +113,7 @@ pub fn method_table(r: &MethodReport) -> String {
         scores: &r.mean.scores,
         scored_pixels: r.mean.pixels.scored_pixels,
         covered_pixels: r.mean.pixels.covered_pixels,
+        common_pixels: r.mean.pixels.common_pixels,
         host_ms: r.mean.host_ms,
     });
     render(&rows)
@@ -196,10 +203,11 @@ mod tests {
             scores: &q,
             scored_pixels: Some(12.0),
             covered_pixels: Some(0.0),
+            common_pixels: Some(0.0),
             host_ms: 1.0,
         }]);
         let cells: Vec<&str> = t.lines().nth(1).unwrap().split_whitespace().collect();
-        assert_eq!(&cells[..3], ["0", "inf", "-"], "{t}");
+        assert_eq!(&cells[..4], ["0", "inf", "-", "-"], "{t}");
     }
 
     #[test]

@@ -84,13 +84,14 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
         let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out))?;
         write_frame_files(out, k, &frame, w, h, ss)?;
-        frames.push(FrameEntry {
-            index: k,
-            scores: Scores::of(quality.as_ref()),
-            pixels: Pixels::of(quality.as_ref()),
+        frames.push(FrameEntry::new(
+            k,
+            Scores::of(quality.as_ref()),
+            Pixels::of(quality.as_ref()),
             host_ms,
-            counters: GoldenCounters::of(&frame.stats),
-        });
+            w as u64 * h as u64,
+            GoldenCounters::of(&frame.stats),
+        ));
         prepared.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }

@@ -1,12 +1,13 @@
 //! Scoring one derived frame against its ground truth, the same way for
 //! every engine (`golden`, `golden --method`, `simulate`): the metrics of
-//! `docs/metrics.md` over the trace's known pixels, and, when an output
+//! `docs/metrics.md` over the trace's known pixels (the common mask of a
+//! run alone: known ∧ seen ∧ covered by this image), and, when an output
 //! directory is given, the difference heat-map `diff-<k>.png` (saturating
 //! at a difference of [`HEATMAP_FULL_SCALE`] 8-bit sRGB codes).
 //!
 //! Frames without ground truth score `None` and write no heat-map.
 
-use crate::metrics::{MetricInput, Quality, evaluate};
+use crate::metrics::{MetricInput, Quality, common_mask, evaluate};
 use crate::report::images::write_diff_heatmap;
 use crate::trace::Trace;
 use bitvec::vec::BitVec;
@@ -27,6 +28,7 @@ pub fn score_frame(
     out: Option<&Path>,
 ) -> anyhow::Result<Option<Quality>> {
     let Some(truth) = trace.load_truth(k)? else { return Ok(None) };
+    let common = common_mask(&truth.known, truth.seen.as_ref(), &[covered])?;
     let q = evaluate(&MetricInput {
         width: w,
         height: h,
@@ -34,6 +36,7 @@ pub fn score_frame(
         truth: &truth.colour,
         known: &truth.known,
         covered: Some(covered),
+        common: Some(&common),
     })?;
     if let Some(out) = out {
         write_diff_heatmap(

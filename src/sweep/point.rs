@@ -138,6 +138,19 @@ pub struct Metrics {
     /// Frames whose hardware image equals the golden model's bit for bit,
     /// hardware (frames).
     pub golden_identical_frames: Option<u64>,
+    /// Mean RGB PSNR on the common mask of the point's run (dB;
+    /// `docs/metrics.md`: known ∧ seen ∧ covered by this point).
+    #[serde(default)]
+    pub psnr_rgb_common_db: Option<f64>,
+    /// Mean luma SSIM on the same mask (1).
+    #[serde(default)]
+    pub ssim_luma_common: Option<f64>,
+    /// Mean LDR-FLIP on the same mask (1).
+    #[serde(default)]
+    pub flip_mean_common: Option<f64>,
+    /// Mean pixels of that mask per frame (pixels).
+    #[serde(default)]
+    pub common_pixels_per_frame: Option<f64>,
 }
 
 /// (column, unit, description, deterministic) of every metric in
@@ -169,6 +182,20 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
     ("frame_rate_at_clock_hz", "Hz", "frames per second at clock_hz, every view (hardware)", true),
     ("dest_cache_hit_rate", "fraction", "destination-cache hits / accesses over all frames (hardware)", true),
     ("golden_identical_frames", "frames", "frames whose image equals the golden model's bit for bit (hardware)", true),
+    (
+        "psnr_rgb_common_db",
+        "dB",
+        "mean RGB PSNR on the point's common mask: known pixels a reference sees that the point covers",
+        true,
+    ),
+    ("ssim_luma_common", "1", "mean luma SSIM on the point's common mask", true),
+    ("flip_mean_common", "1", "mean LDR-FLIP on the point's common mask (lower is better)", true),
+    (
+        "common_pixels_per_frame",
+        "pixels",
+        "mean pixels per frame of the point's common mask (compare points over equal counts)",
+        true,
+    ),
 ];
 
 fn finite(x: f64) -> Option<f64> {
@@ -190,6 +217,10 @@ impl Metrics {
             host_ms_per_frame: finite(m.host_ms),
             kernels_over_limit_per_frame: r.mean_reconstruction_counter("kernels_over_limit"),
             composite_writes_per_sample: r.reconstruction_ratio("composite_writes", "composite_filled"),
+            psnr_rgb_common_db: m.scores.psnr_rgb_common_db,
+            ssim_luma_common: m.scores.ssim_luma_common,
+            flip_mean_common: m.scores.flip_mean_common,
+            common_pixels_per_frame: m.pixels.common_pixels,
             ..Metrics::default()
         }
     }
@@ -211,6 +242,10 @@ impl Metrics {
             frame_rate_at_clock_hz: m.rates.frame_rate_at_clock_hz,
             dest_cache_hit_rate: m.rates.dest_cache_hit_rate,
             golden_identical_frames: Some(t.identical_frames),
+            psnr_rgb_common_db: q.and_then(|q| q.psnr_rgb_common_db),
+            ssim_luma_common: q.and_then(|q| q.ssim_luma_common),
+            flip_mean_common: q.and_then(|q| q.flip_mean_common),
+            common_pixels_per_frame: m.vs_truth.as_ref().and_then(|t| t.pixels.common_pixels),
             ..Metrics::default()
         }
     }
