@@ -126,6 +126,7 @@ pub fn score_run(trace: &Trace, dir: &Path) -> anyhow::Result<RunScore> {
                 known: &known,
                 covered: None,
                 common: None,
+                seen: None,
             })?;
             for (s, v) in sums[r].iter_mut().zip([q.psnr_luma_db, q.ssim_luma, q.flip_mean]) {
                 *s += v;

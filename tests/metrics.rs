@@ -38,7 +38,7 @@ fn input<'a>(
     known: &'a BitVec,
     covered: Option<&'a BitVec>,
 ) -> MetricInput<'a> {
-    MetricInput { width: w, height: h, image, truth, known, covered, common: None }
+    MetricInput { width: w, height: h, image, truth, known, covered, common: None, seen: None }
 }
 
 #[test]
@@ -279,6 +279,7 @@ fn the_common_mask_is_the_intersection_it_claims() {
         known: &known,
         covered: Some(&cov_a),
         common: Some(&(seen.clone() & &cov_a & &cov_b)),
+        seen: Some(&seen),
     })
     .unwrap();
     assert_eq!(q.common_pixels, expected);

@@ -69,6 +69,9 @@ pub struct MetricInput<'a> {
     /// the pixels every compared method covers and a reference sees
     /// (`docs/metrics.md`). `None` = known ∧ covered.
     pub common: Option<&'a BitVec>,
+    /// Set where a reference sees the pixel (the truth's `seen` channel);
+    /// `None` = every pixel seen. Its complement is the never-seen region.
+    pub seen: Option<&'a BitVec>,
 }
 
 /// The scores of one image against its ground truth. Field names are the
@@ -108,6 +111,9 @@ pub struct Quality {
     /// Mean LDR-FLIP over the common mask (0 = identical).
     #[serde(serialize_with = "serialize_finite_or_null")]
     pub flip_mean_common: f64,
+    /// RGB PSNR over known pixels no reference sees (dB).
+    #[serde(serialize_with = "serialize_finite_or_null")]
+    pub psnr_rgb_never_seen_db: f64,
     /// Pixels excluded because the truth is unknown.
     pub excluded_pixels: u64,
     /// Known pixels the warp covered with a real sample.
@@ -116,6 +122,8 @@ pub struct Quality {
     pub scored_pixels: u64,
     /// Pixels in the common mask (what the `*_common` keys score).
     pub common_pixels: u64,
+    /// Known pixels no reference sees (what `psnr_rgb_never_seen_db` scores).
+    pub never_seen_pixels: u64,
 }
 
 /// Why [`evaluate`] cannot score an input.
@@ -198,6 +206,11 @@ const DOCS: &[MetricDoc] = &[
         description: "flip_mean averaged over the common mask, the image taking the truth outside it, 0 to 1",
     },
     MetricDoc {
+        key: "psnr_rgb_never_seen_db",
+        unit: "dB",
+        description: "psnr_rgb_db over known pixels no reference sees (truth's seen clear): the fill's share alone",
+    },
+    MetricDoc {
         key: "excluded_pixels",
         unit: "pixels",
         description: "pixels excluded because the ground truth is unknown",
@@ -212,6 +225,11 @@ const DOCS: &[MetricDoc] = &[
         key: "common_pixels",
         unit: "pixels",
         description: "pixels in the common mask: known, covered by every compared method, seen by a reference",
+    },
+    MetricDoc {
+        key: "never_seen_pixels",
+        unit: "pixels",
+        description: "known pixels no reference sees (the truth's seen channel clear; 0 without the channel)",
     },
 ];
 
@@ -258,6 +276,7 @@ fn check(input: &MetricInput) -> Result<usize, MetricError> {
         ("known mask", input.known.len()),
         ("covered mask", input.covered.map_or(n, BitVec::len)),
         ("common mask", input.common.map_or(n, BitVec::len)),
+        ("seen mask", input.seen.map_or(n, BitVec::len)),
     ];
     for (what, got) in lens {
         if got != n {
@@ -302,6 +321,11 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
         None => covered_known.clone(),
     };
 
+    let never_seen: BitVec = match input.seen {
+        Some(s) => known.clone() & !s.clone(),
+        None => BitVec::repeat(false, n),
+    };
+
     let (image8, truth8) = encode_pair(input);
     let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
     let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
@@ -335,10 +359,12 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
         psnr_rgb_common_db,
         ssim_luma_common,
         flip_mean_common,
+        psnr_rgb_never_seen_db: psnr::psnr_rgb(&image8, &truth8, &never_seen),
         excluded_pixels: (n as u64) - scored_pixels,
         covered_pixels,
         scored_pixels,
         common_pixels: common.count_ones() as u64,
+        never_seen_pixels: never_seen.count_ones() as u64,
     })
 }
 
@@ -364,15 +390,17 @@ mod tests {
             psnr_rgb_common_db: 7.0,
             ssim_luma_common: 0.6,
             flip_mean_common: 0.2,
+            psnr_rgb_never_seen_db: 8.0,
             excluded_pixels: 4,
             covered_pixels: 5,
             scored_pixels: 6,
             common_pixels: 3,
+            never_seen_pixels: 2,
         };
         let v = serde_json::to_value(&q).unwrap();
         let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
         let mut documented: Vec<&str> = describe().iter().map(|d| d.key).collect();
-        assert_eq!(documented.len(), 14);
+        assert_eq!(documented.len(), 16);
         // serde_json's map is sorted by key unless preserve_order is on.
         let mut sorted_keys = keys.clone();
         sorted_keys.sort_unstable();
@@ -396,10 +424,12 @@ mod tests {
             psnr_rgb_common_db: f64::NAN,
             ssim_luma_common: f64::NAN,
             flip_mean_common: f64::NAN,
+            psnr_rgb_never_seen_db: f64::NAN,
             excluded_pixels: 0,
             covered_pixels: 0,
             scored_pixels: 1,
             common_pixels: 0,
+            never_seen_pixels: 0,
         };
         let s = serde_json::to_string(&q).unwrap();
         assert!(s.contains("\"psnr_rgb_db\":null"), "{s}");
@@ -431,8 +461,16 @@ mod tests {
         let px = vec![[0.0f32; 3]; 6];
         let known = BitVec::repeat(true, 6);
         let short = BitVec::repeat(true, 5);
-        let ok =
-            MetricInput { width: 3, height: 2, image: &px, truth: &px, known: &known, covered: None, common: None };
+        let ok = MetricInput {
+            width: 3,
+            height: 2,
+            image: &px,
+            truth: &px,
+            known: &known,
+            covered: None,
+            common: None,
+            seen: None,
+        };
         assert_eq!(check(&ok), Ok(6));
         let e = check(&MetricInput { covered: Some(&short), ..ok }).unwrap_err();
         assert!(matches!(e, MetricError::SizeMismatch { what: "covered mask", got: 5, expected: 6, .. }), "{e}");

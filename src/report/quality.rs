@@ -34,6 +34,8 @@ pub struct Scores {
     pub ssim_luma_common: Option<f64>,
     /// Mean LDR-FLIP on the common mask (1).
     pub flip_mean_common: Option<f64>,
+    /// RGB PSNR over known pixels no reference sees (dB).
+    pub psnr_rgb_never_seen_db: Option<f64>,
 }
 
 /// The pixel counts behind the scores (`N` = `u64` in a frame and in
@@ -48,6 +50,8 @@ pub struct Pixels<N> {
     pub scored_pixels: Option<N>,
     /// Pixels of the common mask (pixels). Absent from older reports.
     pub common_pixels: Option<N>,
+    /// Known pixels no reference sees (pixels).
+    pub never_seen_pixels: Option<N>,
 }
 
 fn finite(x: f64) -> Option<f64> {
@@ -69,6 +73,7 @@ impl Scores {
             psnr_rgb_common_db: finite(q.psnr_rgb_common_db),
             ssim_luma_common: finite(q.ssim_luma_common),
             flip_mean_common: finite(q.flip_mean_common),
+            psnr_rgb_never_seen_db: finite(q.psnr_rgb_never_seen_db),
         }
     }
 }
@@ -82,6 +87,7 @@ impl Pixels<u64> {
             covered_pixels: Some(q.covered_pixels),
             scored_pixels: Some(q.scored_pixels),
             common_pixels: Some(q.common_pixels),
+            never_seen_pixels: Some(q.never_seen_pixels),
         }
     }
 }

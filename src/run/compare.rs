@@ -83,6 +83,13 @@ pub const COLUMNS: &[Column] = &[
         scale: 1.0,
     },
     Column {
+        value: |m| m.scores.psnr_rgb_never_seen_db,
+        csv: "psnr_rgb_never_seen_db",
+        markdown: "never-seen PSNR RGB dB",
+        decimals: 2,
+        scale: 1.0,
+    },
+    Column {
         value: |m| m.pixels.common_pixels,
         csv: "common_pixels_per_frame",
         markdown: "common px",
@@ -187,6 +194,7 @@ pub fn score_common(trace: &Trace, dirs: &[&Path], reports: &mut [MethodReport])
                 known: &truth.known,
                 covered: Some(cov),
                 common: Some(&common),
+                seen: truth.seen.as_ref(),
             })?;
             let f = report.frames.iter_mut().find(|f| f.index == k).context("a run without the frame")?;
             f.scores.psnr_rgb_common_db = q.psnr_rgb_common_db.is_finite().then_some(q.psnr_rgb_common_db);

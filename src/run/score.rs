@@ -37,6 +37,7 @@ pub fn score_frame(
         known: &truth.known,
         covered: Some(covered),
         common: Some(&common),
+        seen: truth.seen.as_ref(),
     })?;
     if let Some(out) = out {
         write_diff_heatmap(

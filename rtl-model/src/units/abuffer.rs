@@ -590,6 +590,20 @@ pub fn reference_depth(inv_z: f32) -> f32 {
     if z.is_finite() && z > 0.0 { z } else { FAR_Z }
 }
 
+/// Derived sample `i` of `frame` as the packer's input: `None` if it holds
+/// neither a surface nor fill. The one conversion the A-buffer round trip
+/// and the fallback pass's byte count share.
+pub fn sample_in(frame: &DestFrame, i: usize) -> Option<SampleIn> {
+    (frame.real[i] || frame.hole[i]).then(|| SampleIn {
+        colour: frame.colour[i],
+        inv_z: frame.inv_z[i],
+        slopes: frame.slopes[i],
+        real: frame.real[i],
+        key: frame.source[i] as u32,
+        weight: frame.fill_weight[i],
+    })
+}
+
 /// Write the destination pixels `[px0, px1) x [py0, py1)` (clipped to the
 /// frame's whole pixels) back to memory in A-buffer format and read them
 /// again: the memory planes (colour, 1/Z, slopes, source, hole, real,
@@ -626,14 +640,7 @@ pub fn round_trip_dest_pixels(
         for px in px0..px1 {
             for (k, i) in pixel_samples(frame.width, ss, px, py).enumerate() {
                 idx[k] = i;
-                samples[k] = (frame.real[i] || frame.hole[i]).then(|| SampleIn {
-                    colour: frame.colour[i],
-                    inv_z: frame.inv_z[i],
-                    slopes: frame.slopes[i],
-                    real: frame.real[i],
-                    key: frame.source[i] as u32,
-                    weight: frame.fill_weight[i],
-                });
+                samples[k] = sample_in(frame, i);
             }
             let packed = packer.pack_in_place(&samples[..n], p, c);
             bytes += packed.bytes();

@@ -59,7 +59,9 @@
 //! groups a pixel's samples differently; at one sample per pixel always
 //! exact).
 
-use super::abuffer::{AbufferCounters, AbufferParams, Packer, RAW_SAMPLE_BYTES, SampleIn, round_trip_dest_pixels};
+use super::abuffer::{
+    AbufferCounters, AbufferParams, Packer, RAW_SAMPLE_BYTES, SampleIn, round_trip_dest_pixels, sample_in,
+};
 use super::dest_cache::DestCache;
 use super::hole_fill::{FillOutcome, HoleFillCounters, HoleFillParams, HoleFillUnit};
 use super::packer::WRITE_QUEUE_LIMIT;
@@ -442,18 +444,7 @@ fn pixel_bytes(f: &DestFrame, px: u32, py: u32, p: &AbufferParams) -> u64 {
     if p.abuffer_fragments == 0 {
         return (ss * ss) as u64 * RAW_SAMPLE_BYTES;
     }
-    let samples: Vec<Option<SampleIn>> = (0..ss * ss)
-        .map(|k| {
-            let i = f.index(px * ss + k % ss, py * ss + k / ss);
-            (f.real[i] || f.hole[i]).then(|| SampleIn {
-                colour: f.colour[i],
-                inv_z: f.inv_z[i],
-                slopes: f.slopes[i],
-                real: f.real[i],
-                key: f.source[i] as u32,
-                weight: f.fill_weight[i],
-            })
-        })
-        .collect();
+    let samples: Vec<Option<SampleIn>> =
+        (0..ss * ss).map(|k| sample_in(f, f.index(px * ss + k % ss, py * ss + k / ss))).collect();
     Packer::new().pack_pixel(&samples, p, &mut AbufferCounters::default()).bytes()
 }
