@@ -167,8 +167,11 @@ fn evaluate_is_deterministic() {
     let truth = picture(w, h);
     let image: Vec<[f32; 3]> = truth.iter().map(|c| [c[1], c[2], c[0]]).collect();
     let known = BitVec::repeat(true, (w * h) as usize);
-    let a = evaluate(&input(w, h, &image, &truth, &known, None)).unwrap();
-    let b = evaluate(&input(w, h, &image, &truth, &known, None)).unwrap();
+    // A seen mask with a never-seen strip, so every score is a number.
+    let seen: BitVec = (0..w * h).map(|i| i % w < w - 5).collect();
+    let a = evaluate(&MetricInput { seen: Some(&seen), ..input(w, h, &image, &truth, &known, None) }).unwrap();
+    let b = evaluate(&MetricInput { seen: Some(&seen), ..input(w, h, &image, &truth, &known, None) }).unwrap();
+    assert!(a.psnr_rgb_never_seen_db.is_finite() && a.never_seen_pixels == 150, "{a:?}");
     assert_eq!(a, b);
     assert_eq!(serde_json::to_string(&a).unwrap(), serde_json::to_string(&b).unwrap());
 }
