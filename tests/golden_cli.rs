@@ -153,6 +153,17 @@ fn motorcycle_reports_whole_and_covered_psnr() {
     assert!(whole > 18.0, "{whole}");
     assert!(covered >= whole, "covered pixels score at least the whole image: {covered} vs {whole}");
     assert_eq!(r["references"]["slopes"][0], "finite-difference", "Middlebury has no slopes: the report says so");
+    // Issue 15's done-when: RVS 4.0's 21.7 dB + 1 dB, no black pixel; the
+    // never-seen strip reported apart from the holes.
+    assert!(whole >= 22.7, "{whole}");
+    assert_eq!(f["empty_samples"], 0);
+    let unseen = f["unseen_fraction"].as_f64().unwrap();
+    assert!((0.02..0.06).contains(&unseen), "the right border strip is about 3.7 % of the image: {unseen}");
+    assert_eq!(unseen, f["unseen_pixels"].as_f64().unwrap() / f["display_pixels"].as_f64().unwrap());
+    assert!(f["hole_fraction"].as_f64().unwrap() > unseen, "holes inside the image come on top of the strip");
+    assert_eq!(r["mean"]["unseen_fraction"], f["unseen_fraction"], "one frame: the mean is the frame");
+    let common = f["psnr_rgb_common_db"].as_f64().unwrap();
+    assert!(common > whole && f["common_pixels"].as_u64() < f["covered_pixels"].as_u64(), "{common}");
 }
 
 #[test]

@@ -450,6 +450,7 @@ mod tests {
             known: &known,
             covered: None,
             common: None,
+            seen: None,
         };
         let (i8, t8) = encode_pair(&input);
         assert_eq!(i8, vec![[10; 3], [210; 3]]);
@@ -472,6 +473,10 @@ mod tests {
             seen: None,
         };
         assert_eq!(check(&ok), Ok(6));
+        let e = check(&MetricInput { common: Some(&short), ..ok }).unwrap_err();
+        assert!(matches!(e, MetricError::SizeMismatch { what: "common mask", got: 5, .. }), "{e}");
+        let e = check(&MetricInput { seen: Some(&short), ..ok }).unwrap_err();
+        assert!(matches!(e, MetricError::SizeMismatch { what: "seen mask", got: 5, .. }), "{e}");
         let e = check(&MetricInput { covered: Some(&short), ..ok }).unwrap_err();
         assert!(matches!(e, MetricError::SizeMismatch { what: "covered mask", got: 5, expected: 6, .. }), "{e}");
         let e = check(&MetricInput { known: &short, ..ok }).unwrap_err();
