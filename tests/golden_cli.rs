@@ -46,6 +46,7 @@ fn printed_table_and_report_agree() {
     let keys = [
         "psnr_rgb_db",
         "psnr_rgb_covered_db",
+        "psnr_rgb_common_db",
         "psnr_luma_db",
         "ssim_luma",
         "flip_mean",
@@ -53,13 +54,13 @@ fn printed_table_and_report_agree() {
         "delta_e20_fraction",
         "host_ms",
     ];
-    let scale = [1.0, 1.0, 1.0, 1.0, 1.0, 100.0, 100.0, 1.0];
-    let decimals = [2, 2, 2, 4, 4, 2, 2, 1];
+    let scale = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 100.0, 100.0, 1.0];
+    let decimals = [2, 2, 2, 2, 4, 4, 2, 2, 1];
     let frames = report["frames"].as_array().unwrap();
     let mut rows = 0;
     for line in stdout.lines() {
         let cells: Vec<&str> = line.split_whitespace().collect();
-        if cells.len() != 9 {
+        if cells.len() != 10 {
             continue;
         }
         let entry = match cells[0] {
