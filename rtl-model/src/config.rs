@@ -73,11 +73,22 @@
 //! hence 16 samples and 16 rectangles per cycle; 16 hole-fill samples per
 //! cycle (2 views × 2 warps × 16 M samples = 64 M visits per 11.1 M-cycle
 //! frame time need at least 6) and 4 packer pixels per cycle (16 M pixel
-//! releases need at least 1.5): sized by this arithmetic, not measured (a
-//! 2000x2000 frame does not fit this project's 24 GiB machines yet,
-//! issue 20). The §5 working set scales
+//! releases need at least 1.5). Measured on a quarter of the area
+//! (`postwarp make-trace --scene room --width 1000 --height 1000
+//! --supersample 2 --frames 2`, `postwarp simulate` with this preset; a
+//! 2000x2000 frame does not yet fit this project's machines, issue 20):
+//! with 2 MiB of destination cache frame 1 (epipoles outside) took
+//! 2.43 M cycles, the compositor waiting for tiles 57 % of them, its
+//! second warp's working set (2490 tiles with 8 MiB) over the 2048 tiles;
+//! with 8 MiB, 1.18 M cycles, no capacity or demand miss, 23.1 GB/s at
+//! 90 Hz x 2 views. Scaled by the area (x4 cycles and bytes, x2 working
+//! set), a 2000x2000 view-pair takes about 9.5 M of the 11.1 M cycles of
+//! 90 Hz at about 93 GB/s (68 % of the peak) with a working set near
+//! 5 MiB: hence 8 MiB, an extrapolation rather than a measurement. Frame 0
+//! (epipole inside) took 7.45 M cycles at 1000x1000: 90 Hz is out of
+//! reach there. The §5 working set scales
 //! with the sweep width (4000 samples): 4000 × 28 rows × 16 B ≈ 1.8 MB, so
-//! a 2 MiB destination cache; 256 KiB of source cache. By the §5 bandwidth
+//! at least 2 MiB of destination cache (8 MiB: measured above); 256 KiB of source cache. By the §5 bandwidth
 //! model (f = 1.2 fragments, 12 B each) one view-frame moves about
 //! 0.49 GB, i.e. about 88 GB/s for two views at 90 Hz: within the peak but
 //! a large share of a memory also used by the renderer and the display,
@@ -293,7 +304,8 @@ impl EngineConfig {
                 transform_throughput: 16,
                 hole_fill_per_cycle: 16,
                 packer_pixels_per_cycle: 4,
-                dest_cache_bytes: 2 * 1024 * 1024,
+                // Measured working set, scaled to 4000-sample sweeps (module doc).
+                dest_cache_bytes: 8 * 1024 * 1024,
                 source_cache_bytes: 256 * 1024,
                 dram_peak_bytes_per_cycle: 136,
                 dram_latency_cycles: 100,
