@@ -244,17 +244,29 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
         if scored_pixels == 0 { f64::NAN } else { (scored_pixels - covered_pixels) as f64 / scored_pixels as f64 };
 
     let (image8, truth8) = encode_pair(input);
-    let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
-    let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
+    // FLIP (the most expensive) beside the others; each is computed once,
+    // whatever the thread count, so the scores do not depend on it.
+    let (flip_mean, (ssim_luma, psnr_luma_db, delta_e20_fraction)) = rayon::join(
+        || flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+        || {
+            let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
+            let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
+            let (ssim, de) = rayon::join(
+                || ssim::ssim_mean(input.width as usize, input.height as usize, &image_luma, &truth_luma, known),
+                || delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
+            );
+            (ssim, psnr::psnr_plane(&image_luma, &truth_luma, known), de)
+        },
+    );
 
     Ok(Quality {
         psnr_rgb_db: psnr::psnr_rgb(&image8, &truth8, known),
         psnr_rgb_covered_db: psnr::psnr_rgb(&image8, &truth8, &covered_known),
-        psnr_luma_db: psnr::psnr_plane(&image_luma, &truth_luma, known),
-        ssim_luma: ssim::ssim_mean(input.width as usize, input.height as usize, &image_luma, &truth_luma, known),
-        flip_mean: flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+        psnr_luma_db,
+        ssim_luma,
+        flip_mean,
         hole_fraction,
-        delta_e20_fraction: delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
+        delta_e20_fraction,
         excluded_pixels: (n as u64) - scored_pixels,
         covered_pixels,
         scored_pixels,
