@@ -23,8 +23,8 @@ use crate::report::quality::{Pixels, Scores};
 use crate::report::table;
 use crate::trace::Trace;
 use anyhow::Context;
-use rayon::prelude::*;
 use postwarp_rtl::SampleImage;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -94,6 +94,10 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         let t = Instant::now();
         let frame = warper.warp_frame(&cmd, &refs, cfg);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
+        // References this frame was the last to use go before scoring and
+        // writing, which need memory of their own.
+        drop(refs);
+        prepared.retain(|r, _| last_use[r] > k);
         // Scoring (with the heat-map) beside writing the frame's files.
         let (quality, written) = rayon::join(
             || super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out)),
@@ -108,7 +112,6 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
             host_ms,
             counters: GoldenCounters::of(&frame.stats),
         });
-        prepared.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
     bar.finish_and_clear();
