@@ -90,7 +90,7 @@ proptest! {
     #[test]
     fn the_fetch_plan_streams_each_live_lines_neighbourhood_before_its_need(s in scene()) {
         let wp = build(&s);
-        let (sc, r) = (&wp.sched, &wp.r);
+        let sc = &wp.sched;
         let (w, h) = (s.w, s.h);
         for iv in &sc.fetch {
             let (lines, len) = extent(iv.major, w, h);
@@ -196,7 +196,7 @@ proptest! {
 /// that cover some sample.
 fn check_conservative(s: &Scene) -> Result<usize, TestCaseError> {
     let wp = build(s);
-    let (sc, r, tu) = (&wp.sched, &wp.r, &wp.tu);
+    let (sc, tu) = (&wp.sched, &wp.tu);
     let (w, h) = (s.w as i64, s.h as i64);
     let tw = s.w.div_ceil(s.tile) as i64;
     let valid = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y) && wp.samples.valid[(y * w + x) as usize];
