@@ -129,6 +129,12 @@ pub struct EngineConfig {
     pub hole_max_distance: u32,
     /// Derived samples the hole-fill unit visits per cycle (samples/cycle).
     pub hole_fill_per_cycle: u32,
+    /// Lines ahead of the sweep front at which the schedule loads a
+    /// destination tile (lines; 0 = no prefetch, every tile on demand).
+    pub tile_prefetch_distance: u32,
+    /// Stamps that may wait in the compositor's miss queue while later
+    /// stamps on resident tiles proceed (stamps; 0 = block in order).
+    pub composite_miss_queue: u32,
     /// After the last warp, the hole-fill unit's fallback pass fills the
     /// samples no epipolar pass reached (`units::fallback_fill`).
     pub fallback_fill: bool,
@@ -184,6 +190,16 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ("hole_max_distance", "samples", "saturation of the 6-bit hole-fill distance plane"),
     ("hole_fill_per_cycle", "samples/cycle", "derived samples the hole-fill unit visits per cycle"),
     (
+        "tile_prefetch_distance",
+        "lines",
+        "lines ahead of the sweep front at which the schedule loads a destination tile (0 = on demand only)",
+    ),
+    (
+        "composite_miss_queue",
+        "stamps",
+        "stamps waiting for a tile while later stamps on resident tiles proceed (0 = block in order)",
+    ),
+    (
         "fallback_fill",
         "bool",
         "after the last warp, fill the samples no epipolar pass reached (the hole fill's pass in reverse order)",
@@ -227,6 +243,8 @@ impl Default for EngineConfig {
             hole_far_offset: 4,
             hole_max_distance: 63,
             hole_fill_per_cycle: 1,
+            tile_prefetch_distance: 0,
+            composite_miss_queue: 0,
             fallback_fill: true,
         }
     }
@@ -309,6 +327,8 @@ impl EngineConfig {
         range("hole_far_offset", self.hole_far_offset.into(), 1, 64, "samples")?;
         range("hole_max_distance", self.hole_max_distance.into(), 1, 255, "samples")?;
         range("hole_fill_per_cycle", self.hole_fill_per_cycle.into(), 1, 256, "samples/cycle")?;
+        range("tile_prefetch_distance", self.tile_prefetch_distance.into(), 0, 1 << 16, "lines")?;
+        range("composite_miss_queue", self.composite_miss_queue.into(), 0, 64, "stamps")?;
         if self.kernel_limit > self.tile_size {
             return Err(format!(
                 "kernel_limit = {}: expected at most tile_size ({}) so that one stamp touches at most 4 tiles",
@@ -390,6 +410,8 @@ mod tests {
             ("hole_far_offset", |c| c.hole_far_offset = 0),
             ("hole_max_distance", |c| c.hole_max_distance = 256),
             ("hole_fill_per_cycle", |c| c.hole_fill_per_cycle = 0),
+            ("tile_prefetch_distance", |c| c.tile_prefetch_distance = 70_000),
+            ("composite_miss_queue", |c| c.composite_miss_queue = 65),
         ]
     }
 

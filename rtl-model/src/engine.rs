@@ -62,9 +62,9 @@ use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
 use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, MemPort, Tag};
-use crate::schedule::{Schedule, release_order};
+use crate::schedule::{Schedule, fill_first_lines, release_order};
 use crate::timeline::{Occupancy, Timeline};
-use crate::traversal::warp_lines;
+use crate::traversal::{sweep_of, warp_lines};
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
 use crate::units::dest_cache::DestCache;
@@ -76,7 +76,9 @@ use crate::units::line_buffer::LineBuffer;
 use crate::units::packer::{PackerPorts, PackerStage};
 use crate::units::raster::{RasterPorts, RasterStage, Stamped};
 use crate::units::resolve::resolve;
+use crate::units::tile_cache::TileState;
 use crate::units::tile_manager::TileManager;
+use crate::units::tile_prefetch::{Fronts, TilePrefetch};
 use crate::units::transform::{TransformStage, TransformUnit};
 use crate::units::{Activity, UnitCycles as Cycles, UnitState, display};
 use bitvec::vec::BitVec;
@@ -414,6 +416,12 @@ impl Machine<'_> {
             let mut io = KernelSetupPorts { transform, fetch_interval, out: &mut p.kernels, tiles };
             moved |= p.kernel.tick(now, &mut io).moved;
             moved |= p.tiles.tick(p.kernel.lines_emitted());
+            if p.held_to_end.is_none() && p.kernel.is_done() {
+                p.held_to_end = Some(plan.held_to_end(cache));
+            }
+            // 7b. The schedule's tile prefetch, ahead of both fronts.
+            let fronts = Fronts { warp_lines: p.kernel.lines_emitted(), fill_lines: p.fill.lines_done() };
+            moved |= p.prefetch.tick(now, fronts, cache, frame, port);
             // 8. Fetch, then the transform pipeline's state.
             moved |= p.fetch.tick(now, &mut FetchPorts { transform: &mut p.transform, port }).moved;
             p.transform.tick(now);
@@ -437,12 +445,14 @@ impl Machine<'_> {
     }
 }
 
-/// The software half of a warp (tile manager, zero cycles): the schedule
-/// and the hole fill's release order.
+/// The software half of a warp (tile manager, zero cycles): the schedule,
+/// the hole fill's release order and the prefetch lists.
 struct WarpPlan {
     sched: Schedule,
     fill: HoleFillUnit,
     releases: Vec<(u64, u32)>,
+    /// Per tile, the first hole-fill line that reads or writes it.
+    fill_first: Vec<Option<u32>>,
     /// The §5 model's working set for this warp.
     working_set: crate::working_set::WorkingSet,
 }
@@ -459,7 +469,9 @@ impl WarpPlan {
         };
         let epipole: Epipole = w.tu.setup.epipole_derived;
         let fill = HoleFillUnit::new(dw, dh, &epipole, params);
-        let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &HoleFillUnit::tap_offsets(&params));
+        let taps = HoleFillUnit::tap_offsets(&params);
+        let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &taps);
+        let fill_first = fill_first_lines(fill.lines(), (dw, dh), cfg.tile_size, &taps);
         let working_set = crate::working_set::predict(
             &w.tu.setup,
             (&w.tu.reference_camera(), &w.dst),
@@ -469,7 +481,26 @@ impl WarpPlan {
             cfg.kernel_limit,
             cfg.tile_size,
         );
-        WarpPlan { sched, fill, releases, working_set }
+        WarpPlan { sched, fill, releases, fill_first, working_set }
+    }
+
+    /// When kernel setup has set up the warp's last line: the tiles still
+    /// held (loading, resident or spilled) whose last write came in an
+    /// earlier sweep than that line's ([`FrameStats::tiles_held_to_warp_end`]).
+    fn held_to_end(&self, cache: &DestCache) -> u64 {
+        let lines = &self.sched.lines;
+        let Some(last) = lines.last() else { return 0 };
+        let sweep = |l: u32| sweep_of(lines[l as usize].sheet).0;
+        let last_sweep = sweep_of(last.sheet).0;
+        self.sched
+            .retire
+            .iter()
+            .enumerate()
+            .filter(|&(t, r)| {
+                r.is_some_and(|l| sweep(l) != last_sweep)
+                    && matches!(cache.state(t as u32), TileState::Loading | TileState::Resident | TileState::Spilled)
+            })
+            .count() as u64
     }
 }
 
@@ -483,6 +514,9 @@ struct Pipeline<'s> {
     stamps: Fifo<Stamped>,
     composite: CompositeStage<'s>,
     tiles: TileManager,
+    prefetch: TilePrefetch,
+    /// [`WarpPlan::held_to_end`], once kernel setup is done.
+    held_to_end: Option<u64>,
     fill: HoleFillStage,
     packer: PackerStage<'s>,
 }
@@ -512,8 +546,10 @@ impl<'s> Pipeline<'s> {
             kernels: Fifo::new(2 * rate as usize, 1),
             raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate, a()),
             stamps: Fifo::new(2 * rate as usize, 1),
-            composite: CompositeStage::new(tu, cfg.slope_tol, cfg.rel_tol, rate, a()),
+            composite: CompositeStage::new(tu, cfg.slope_tol, cfg.rel_tol, rate, cfg.composite_miss_queue, a()),
             tiles: TileManager::new(sched.lines.len(), &sched.retire),
+            prefetch: TilePrefetch::new(&sched.first, &plan.fill_first, cfg.tile_prefetch_distance),
+            held_to_end: None,
             fill: HoleFillStage::new(plan.fill.clone(), cfg.hole_fill_per_cycle, a()),
             packer: PackerStage::new(&plan.releases, abuffer_params(cfg), now, a()),
         }
@@ -526,6 +562,7 @@ impl<'s> Pipeline<'s> {
             && self.kernel.is_done()
             && self.kernels.is_empty()
             && self.stamps.is_empty()
+            && self.composite.is_idle()
             && self.fill.is_done()
             && self.packer.is_done(now)
     }
@@ -580,6 +617,8 @@ impl<'s> Pipeline<'s> {
         s.ws_model_tiles.push(plan.working_set.tiles);
         let (evictions, ab) = self.packer.counts();
         s.tile_evictions.push(evictions);
+        s.tiles_held_to_warp_end.push(self.held_to_end.unwrap_or(0));
+        s.composite_bypasses += self.composite.bypasses();
         m.ab.add(ab);
         s.samples_transformed += self.transform.samples();
         let (kernels, culled) = self.kernel.counts();

@@ -50,6 +50,14 @@ pub struct FrameStats {
     pub peak_tiles: Vec<u64>,
     /// Destination tiles released and written back, per reference warp (tiles).
     pub tile_evictions: Vec<u64>,
+    /// Destination tiles still held when kernel setup finished the warp's
+    /// last line although their last write came in an earlier sweep: the
+    /// fill could not follow the warp to them (fill on eviction failed),
+    /// per reference warp (tiles).
+    pub tiles_held_to_warp_end: Vec<u64>,
+    /// Stamps the compositor drew ahead of an older stamp waiting in its
+    /// miss queue (stamps).
+    pub composite_bypasses: u64,
     /// The working-set model's prediction (`docs/warper-reference.md` §5,
     /// [`crate::working_set`]), per reference warp (tiles).
     pub ws_model_tiles: Vec<u64>,
@@ -127,7 +135,22 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::histogram("dram.latency.<cycles>", "cycles", "requests by cycles from acceptance to completion"),
     StatDef::counter("dest_cache.accesses", "accesses", "destination-tile look-ups, each counted once"),
     StatDef::counter("dest_cache.hits", "accesses", "look-ups that found the tile resident"),
-    StatDef::counter("dest_cache.misses_compulsory", "accesses", "first use of a tile in a warp"),
+    StatDef::counter(
+        "dest_cache.misses_compulsory",
+        "tiles",
+        "tiles loaded for their first use in a warp, by the schedule's prefetch or on demand",
+    ),
+    StatDef::counter(
+        "dest_cache.misses_demand",
+        "accesses",
+        "look-ups that found a tile the schedule had not loaded: loaded on demand",
+    ),
+    StatDef::counter(
+        "dest_cache.misses_late",
+        "accesses",
+        "look-ups that found the tile's load still in flight (a late prefetch or another unit's miss)",
+    ),
+    StatDef::counter("dest_cache.prefetches", "tiles", "tiles the schedule loaded ahead of their first use"),
     StatDef::counter("dest_cache.misses_capacity", "accesses", "use of a tile spilled earlier in the same warp"),
     StatDef::counter("dest_cache.spills", "tiles", "tiles spilled raw to make room"),
     StatDef::counter("source_cache.block_reads", "blocks", "reference block reads issued, over all warps"),
@@ -156,6 +179,16 @@ pub const FRAME_STATS: &[StatDef] = &[
         "the derived frame's size in A-buffer format after one warp's write-back",
     ),
     StatDef::counter("tile_evictions.<warp>", "tiles", "destination tiles released and written back in one warp"),
+    StatDef::counter(
+        "tiles_held_to_warp_end.<warp>",
+        "tiles",
+        "tiles still held when the warp's last line was set up, last written in an earlier sweep (fill on eviction failed)",
+    ),
+    StatDef::counter(
+        "composite_bypasses",
+        "stamps",
+        "stamps composited ahead of an older stamp waiting in the miss queue",
+    ),
     StatDef::counter("samples_transformed", "samples", "reference samples streamed to the transform unit"),
     StatDef::counter("culled_samples", "samples", "reference samples on live lines behind the derived camera"),
     StatDef::counter("kernels", "kernels", "kernels set up"),
@@ -232,6 +265,9 @@ impl FrameStats {
         put("dest_cache.accesses".into(), c.accesses);
         put("dest_cache.hits".into(), c.hits);
         put("dest_cache.misses_compulsory".into(), c.misses_compulsory);
+        put("dest_cache.misses_demand".into(), c.misses_demand);
+        put("dest_cache.misses_late".into(), c.misses_late);
+        put("dest_cache.prefetches".into(), c.prefetches);
         put("dest_cache.misses_capacity".into(), c.misses_capacity);
         put("dest_cache.spills".into(), c.spills);
         let s = &self.source_cache;
@@ -255,6 +291,10 @@ impl FrameStats {
         for (warp, &n) in self.tile_evictions.iter().enumerate() {
             put(format!("tile_evictions.{warp}"), n);
         }
+        for (warp, &n) in self.tiles_held_to_warp_end.iter().enumerate() {
+            put(format!("tiles_held_to_warp_end.{warp}"), n);
+        }
+        put("composite_bypasses".into(), self.composite_bypasses);
         put("samples_transformed".into(), self.samples_transformed);
         put("culled_samples".into(), self.culled_samples);
         put("kernels".into(), self.kernels);

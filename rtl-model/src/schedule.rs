@@ -37,6 +37,11 @@
 //!    once the fill has visited its samples and every sample whose taps can
 //!    read it ([`release_order`]).
 //!
+//! 5. **Tile prefetch.** Each tile's load is issued
+//!    `tile_prefetch_distance` lines before the first line that may touch
+//!    it, by the warp ([`Schedule::first`]) or by the hole fill
+//!    ([`fill_first_lines`]); `units::tile_prefetch` runs the two lists.
+//!
 //! The schedule only decides *when*; it never changes a value, so a
 //! conservative bound costs cache space and time, never correctness.
 //!
@@ -156,6 +161,9 @@ pub struct Schedule {
     /// Per destination tile (row-major tile grid): the last line whose
     /// kernels may write it (`None`: no kernel can).
     pub retire: Vec<Option<u32>>,
+    /// Per destination tile: the first line whose kernels may write it
+    /// (`None`: no kernel can); the prefetch of rule 5 runs ahead of it.
+    pub first: Vec<Option<u32>>,
     /// Tiles per row and per column of the destination tile grid.
     pub tiles: (u32, u32),
 }
@@ -226,6 +234,7 @@ impl Schedule {
     ) -> Schedule {
         let tiles = (dst.0.div_ceil(tile), dst.1.div_ceil(tile));
         let mut retire: Vec<Option<u32>> = vec![None; (tiles.0 * tiles.1) as usize];
+        let mut first: Vec<Option<u32>> = vec![None; retire.len()];
         let mut live = vec![false; lines.len()];
         let margin = 1e-3;
         for (k, l) in lines.iter().enumerate() {
@@ -257,7 +266,9 @@ impl Schedule {
                     live[k] = true;
                     for ty in ty0..=ty1 {
                         for tx in tx0..=tx1 {
-                            retire[(ty * tiles.0 + tx) as usize] = Some(k as u32);
+                            let t = (ty * tiles.0 + tx) as usize;
+                            retire[t] = Some(k as u32);
+                            first[t].get_or_insert(k as u32);
                         }
                     }
                 }
@@ -265,7 +276,7 @@ impl Schedule {
             }
         }
         let (fetch, need) = fetch_plan(&lines, &live, size);
-        Schedule { lines, live, fetch, need, retire, tiles }
+        Schedule { lines, live, fetch, need, retire, first, tiles }
     }
 }
 
@@ -339,25 +350,25 @@ fn fetch_plan(lines: &[Line], live: &[bool], size: (u32, u32)) -> (Vec<FetchInte
     (fetch, need)
 }
 
-/// Rule 4: destination tiles in the order the hole fill releases them,
-/// each with the number of fill visits after which it may leave: the
-/// visits of its own samples and of every sample whose taps fall in it.
-/// `lines` is the fill order; a sample at position `a` of line `l` has its
-/// taps at positions `a + k` (`k` in `tap_offsets`) of the line before it
-/// in its sheet (`l.line − l.line_step`), as the hole fill's are.
-///
-/// Computed per line and per tile segment, not per sample: along a line
-/// the visit numbers grow in visiting order, so the last visit that
-/// touches a tile segment is that of the segment's last sample in
-/// visiting order (for taps, of the sample whose tap is the segment's
-/// last).
-pub fn release_order(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[i64]) -> Vec<(u64, u32)> {
+/// Every tile segment the hole fill's pass over `lines` touches: for each
+/// line (its index in `lines`), the segments of its own samples and of the
+/// taps its samples read on the line before it in its sheet
+/// (`l.line − l.line_step`, at positions `a + k` for `k` in `tap_offsets`),
+/// each with the visit number of the last visit that touches it. Along a
+/// line the visit numbers grow in visiting order, so that is the visit of
+/// the segment's last sample in visiting order (for taps, of the sample
+/// whose tap is the segment's last).
+fn for_each_fill_segment(
+    lines: &[Line],
+    dst: (u32, u32),
+    tile: u32,
+    tap_offsets: &[i64],
+    mut seen: impl FnMut(usize, u64, usize),
+) {
     let tw = dst.0.div_ceil(tile);
-    let th = dst.1.div_ceil(tile);
-    let mut last = vec![0u64; (tw * th) as usize];
     let t = tile as i64;
     let mut visit = 0u64;
-    for l in lines {
+    for (index, l) in lines.iter().enumerate() {
         let (lo, hi) = (l.lo as i64, l.hi as i64);
         // The visit number of the sample at position `a` of this line.
         let v = |a: i64| visit + 1 + if l.step > 0 { (a - lo) as u64 } else { (hi - a) as u64 };
@@ -378,9 +389,8 @@ pub fn release_order(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[
             let mut b = b0;
             while b <= b1 {
                 let end = ((b / t + 1) * t - 1).min(b1);
-                let visit = if l.step > 0 { v(end - k) } else { v(b - k) };
-                let e = &mut last[tile_at(line, b)];
-                *e = (*e).max(visit);
+                let last = if l.step > 0 { v(end - k) } else { v(b - k) };
+                seen(index, last, tile_at(line, b));
                 b = end + 1;
             }
         };
@@ -393,7 +403,32 @@ pub fn release_order(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[
         }
         visit += l.len() as u64;
     }
+}
+
+/// Rule 4: destination tiles in the order the hole fill releases them,
+/// each with the number of fill visits after which it may leave: the
+/// visits of its own samples and of every sample whose taps fall in it.
+/// `lines` is the fill order; a sample at position `a` of line `l` has its
+/// taps at positions `a + k` (`k` in `tap_offsets`) of the line before it
+/// in its sheet (`l.line − l.line_step`), as the hole fill's are.
+///
+/// Computed per line and per tile segment, not per sample
+/// ([`for_each_fill_segment`]).
+pub fn release_order(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[i64]) -> Vec<(u64, u32)> {
+    let mut last = vec![0u64; (dst.0.div_ceil(tile) * dst.1.div_ceil(tile)) as usize];
+    for_each_fill_segment(lines, dst, tile, tap_offsets, |_, visit, t| last[t] = last[t].max(visit));
     let mut order: Vec<(u64, u32)> = last.iter().enumerate().map(|(t, &v)| (v, t as u32)).collect();
     order.sort_unstable();
     order
+}
+
+/// Rule 5: per destination tile, the first line of the hole fill's pass
+/// over `lines` that reads or writes it (its own samples or its taps, as in
+/// [`release_order`]); `None` for a tile the pass never reaches.
+pub fn fill_first_lines(lines: &[Line], dst: (u32, u32), tile: u32, tap_offsets: &[i64]) -> Vec<Option<u32>> {
+    let mut first: Vec<Option<u32>> = vec![None; (dst.0.div_ceil(tile) * dst.1.div_ceil(tile)) as usize];
+    for_each_fill_segment(lines, dst, tile, tap_offsets, |line, _, t| {
+        first[t].get_or_insert(line as u32);
+    });
+    first
 }

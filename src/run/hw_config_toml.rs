@@ -44,6 +44,8 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
         "hole_far_offset" => c.hole_far_offset = u32v()?,
         "hole_max_distance" => c.hole_max_distance = u32v()?,
         "hole_fill_per_cycle" => c.hole_fill_per_cycle = u32v()?,
+        "tile_prefetch_distance" => c.tile_prefetch_distance = u32v()?,
+        "composite_miss_queue" => c.composite_miss_queue = u32v()?,
         "fallback_fill" => c.fallback_fill = boolean()?,
         _ => return Err(format!("unknown knob (known: {})", KNOBS.iter().map(|k| k.0).collect::<Vec<_>>().join(", "))),
     }
@@ -125,6 +127,8 @@ pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
         "hole_far_offset" => i(c.hole_far_offset.into()),
         "hole_max_distance" => i(c.hole_max_distance.into()),
         "hole_fill_per_cycle" => i(c.hole_fill_per_cycle.into()),
+        "tile_prefetch_distance" => i(c.tile_prefetch_distance.into()),
+        "composite_miss_queue" => i(c.composite_miss_queue.into()),
         "fallback_fill" => V::Boolean(c.fallback_fill),
         _ => return None,
     })

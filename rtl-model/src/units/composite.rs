@@ -32,6 +32,16 @@
 //!    on `upstream`. The better-reference mask is computed (by the
 //!    transform unit, on request) only when rule 3 needs it.
 //!
+//! 6. Miss queue (`composite_miss_queue` stamps; 0 = rule 5's in-order
+//!    blocking): a stamp whose tiles are not all resident leaves the FIFO
+//!    for the queue while it has room, and the stamps behind it go on. A
+//!    stamp that shares a tile with a queued stamp is never composited
+//!    before it (it queues behind it, or waits in the FIFO): stamps that
+//!    share no tile write disjoint samples, so the order among stamps
+//!    that may overlap is the FIFO's and every value is what in-order
+//!    compositing gives. Each cycle the queue is served first, oldest
+//!    first, then the FIFO, `rects_per_cycle` stamps in all.
+//!
 //! Not modelled: bank conflicts inside the cache (one stamp per cycle).
 
 use super::dest_cache::DestCache;
@@ -127,79 +137,170 @@ pub struct CompositePorts<'a> {
     pub tiles: &'a mut TileManager,
 }
 
-/// The compositor's control for one warp (rule 5).
+/// The destination tiles a stamp touches (at most 4, rule 5), in a fixed
+/// array with their count.
+#[inline]
+fn stamp_tiles(c: &DestCache, job: &Stamped) -> ([u32; 4], usize) {
+    let mut tiles = [u32::MAX; 4];
+    let (tx0, tx1) = (c.tile_col(job.stamp.x.0 as u32), c.tile_col(job.stamp.x.1 as u32));
+    let (ty0, ty1) = (c.tile_row_base(job.stamp.y.0 as u32), c.tile_row_base(job.stamp.y.1 as u32));
+    let mut k = 0;
+    let mut row = ty0;
+    while row <= ty1 {
+        for tx in tx0..=tx1 {
+            tiles[k] = row + tx;
+            k += 1;
+        }
+        row += c.tiles().0;
+    }
+    (tiles, k)
+}
+
+/// A stamp waiting in the miss queue for a tile, with its tiles.
+struct Waiting {
+    job: Stamped,
+    tiles: [u32; 4],
+    n: usize,
+}
+
+impl Waiting {
+    fn shares_a_tile(&self, tiles: &[u32]) -> bool {
+        self.tiles[..self.n].iter().any(|t| tiles.contains(t))
+    }
+}
+
+/// The compositor's control for one warp (rules 5 and 6).
 pub struct CompositeStage<'s> {
     tu: &'s TransformUnit,
     slope_tol: f64,
     rel_tol: f64,
     lanes: usize,
+    /// Miss-queue entries (`composite_miss_queue`).
+    queue_cap: usize,
+    /// The miss queue, oldest first.
+    queue: Vec<Waiting>,
     verdicts: [u64; 4],
+    /// Stamps that went ahead of an older stamp in the miss queue.
+    bypasses: u64,
     activity: Activity,
 }
 
 impl<'s> CompositeStage<'s> {
     /// A compositor with the Z tolerances `slope_tol`, `rel_tol`, `lanes`
-    /// stamps per cycle, for the warp by `tu`, accounted by `activity`.
-    pub fn new(tu: &'s TransformUnit, slope_tol: f64, rel_tol: f64, lanes: u32, activity: Activity) -> Self {
-        CompositeStage { tu, slope_tol, rel_tol, lanes: lanes as usize, verdicts: [0; 4], activity }
+    /// stamps per cycle and a miss queue of `miss_queue` stamps, for the
+    /// warp by `tu`, accounted by `activity`.
+    pub fn new(
+        tu: &'s TransformUnit,
+        slope_tol: f64,
+        rel_tol: f64,
+        lanes: u32,
+        miss_queue: u32,
+        activity: Activity,
+    ) -> Self {
+        CompositeStage {
+            tu,
+            slope_tol,
+            rel_tol,
+            lanes: lanes as usize,
+            queue_cap: miss_queue as usize,
+            queue: Vec::with_capacity(miss_queue as usize),
+            verdicts: [0; 4],
+            bypasses: 0,
+            activity,
+        }
     }
 
-    /// One cycle (rule 5).
+    /// No stamp waits in the miss queue.
+    #[inline]
+    pub fn is_idle(&self) -> bool {
+        self.queue.is_empty()
+    }
+
+    /// Look up a stamp's tiles (counted once per stamp); true if all are
+    /// resident.
+    #[inline]
+    fn ready(now: Cycle, tiles: &[u32], counted: bool, io: &mut CompositePorts<'_>) -> bool {
+        let mut ready = true;
+        for &t in tiles {
+            ready &= io.cache.want(now, t, counted, tiles, io.frame, io.port);
+        }
+        ready
+    }
+
+    /// Composite one stamp whose tiles are resident.
+    #[inline]
+    fn draw(&mut self, mut job: Stamped, io: &mut CompositePorts<'_>) {
+        let (sx, sy) = job.sample;
+        let (src_inv_z, src_slopes) = (job.src_inv_z, job.src_slopes);
+        let tu = self.tu;
+        let f = &mut *io.frame;
+        job.stamp.for_each(|x, y| {
+            let i = f.index(x, y);
+            let better = &mut job.better;
+            let v = composite(
+                f,
+                i,
+                &job.cand,
+                || *better.get_or_insert_with(|| tu.better_mask(sx as f64, sy as f64, src_inv_z, src_slopes)),
+                self.slope_tol,
+                self.rel_tol,
+            );
+            self.verdicts[v as usize] += 1;
+        });
+        io.tiles.kernel_done(job.line);
+    }
+
+    /// One cycle (rules 5 and 6).
     #[inline]
     pub fn tick(&mut self, now: Cycle, io: &mut CompositePorts<'_>) -> Tick {
         let mut did = 0;
         let mut waiting_tile = false;
+        // Rule 6: queued stamps whose tiles have arrived, oldest first; one
+        // that shares a tile with an older queued stamp keeps its place.
+        let mut k = 0;
+        while k < self.queue.len() && did < self.lanes {
+            let w = &self.queue[k];
+            let tiles = &w.tiles[..w.n];
+            if self.queue[..k].iter().any(|o| o.shares_a_tile(tiles)) || !Self::ready(now, tiles, false, io) {
+                k += 1;
+                continue;
+            }
+            if k > 0 {
+                self.bypasses += 1;
+            }
+            let w = self.queue.remove(k);
+            self.draw(w.job, io);
+            did += 1;
+        }
         while did < self.lanes {
             let Some(job) = io.input.peek(now) else { break };
-            let mut tiles = [u32::MAX; 4];
-            let c = &*io.cache;
-            let (tx0, tx1) = (c.tile_col(job.stamp.x.0 as u32), c.tile_col(job.stamp.x.1 as u32));
-            let (ty0, ty1) = (c.tile_row_base(job.stamp.y.0 as u32), c.tile_row_base(job.stamp.y.1 as u32));
-            let mut k = 0;
-            let mut row = ty0;
-            while row <= ty1 {
-                for tx in tx0..=tx1 {
-                    tiles[k] = row + tx;
-                    k += 1;
-                }
-                row += c.tiles().0;
-            }
+            let (tiles, n) = stamp_tiles(io.cache, job);
             let counted = !job.counted;
-            let mut ready = true;
-            for &t in &tiles[..k] {
-                ready &= io.cache.want(now, t, counted, &tiles[..k], io.frame, io.port);
-            }
-            if !ready {
+            let behind = self.queue.iter().any(|w| w.shares_a_tile(&tiles[..n]));
+            let ready = Self::ready(now, &tiles[..n], counted, io);
+            if ready && !behind {
+                let job = io.input.pop(now).expect("peeked");
+                if !self.queue.is_empty() {
+                    self.bypasses += 1;
+                }
+                self.draw(job, io);
+                did += 1;
+            } else if self.queue.len() < self.queue_cap {
+                let mut job = io.input.pop(now).expect("peeked");
+                job.counted = true;
+                self.queue.push(Waiting { job, tiles, n });
+            } else {
                 if let Some(j) = io.input.oldest_mut() {
                     j.counted = true;
                 }
                 waiting_tile = true;
                 break;
             }
-            let mut job = io.input.pop(now).expect("peeked");
-            let (sx, sy) = job.sample;
-            let (src_inv_z, src_slopes) = (job.src_inv_z, job.src_slopes);
-            let tu = self.tu;
-            let f = &mut *io.frame;
-            job.stamp.for_each(|x, y| {
-                let i = f.index(x, y);
-                let better = &mut job.better;
-                let v = composite(
-                    f,
-                    i,
-                    &job.cand,
-                    || *better.get_or_insert_with(|| tu.better_mask(sx as f64, sy as f64, src_inv_z, src_slopes)),
-                    self.slope_tol,
-                    self.rel_tol,
-                );
-                self.verdicts[v as usize] += 1;
-            });
-            io.tiles.kernel_done(job.line);
-            did += 1;
         }
+        waiting_tile |= did == 0 && !self.queue.is_empty();
         let t = if did > 0 {
             Tick::BUSY
-        } else if io.input.is_empty() {
+        } else if io.input.is_empty() && self.queue.is_empty() {
             Tick::IDLE
         } else if waiting_tile {
             Tick::stall(StallReason::Tile)
@@ -219,6 +320,12 @@ impl<'s> CompositeStage<'s> {
     /// Verdicts in this warp, in [`Verdict`] order (samples).
     pub fn verdicts(&self) -> [u64; 4] {
         self.verdicts
+    }
+
+    /// Stamps composited ahead of an older stamp waiting in the miss
+    /// queue, in this warp.
+    pub fn bypasses(&self) -> u64 {
+        self.bypasses
     }
 }
 

@@ -24,7 +24,11 @@
 //!    unchanged.
 //! 3. A spill writes the victim raw (`tile_size² · 16 B`) through the write
 //!    queue.
-//! 4. Loads queue as demand requests (the memory port's highest priority).
+//! 4. Loads on a miss queue as demand requests (the memory port's highest
+//!    priority).
+//! 5. The schedule's prefetch (`units::tile_prefetch`) starts a tile's
+//!    load as rule 1 does, into a free slot only, and queues it with the
+//!    prefetch requests (below demand loads and write-backs).
 //!
 //! Not modelled: tag look-up latency, bank conflicts.
 
@@ -166,22 +170,7 @@ impl DestCache {
             Lookup::Hit => true,
             Lookup::Wait | Lookup::Full => false,
             Lookup::Compulsory => {
-                self.loads += 1;
-                if self.warp == 0 {
-                    // First warp: the tile is empty, cleared on chip.
-                    self.arrived(now, t, true, f);
-                } else {
-                    let bytes = self.packed_bytes[t as usize];
-                    port.demand(Req {
-                        client: Client::TileFill,
-                        access: Access::Read,
-                        bytes,
-                        tag: Tag::Tile { tile: t, fresh: true },
-                    });
-                    if bytes == 0 {
-                        self.arrived(now, t, true, f);
-                    }
-                }
+                self.start_fresh_load(now, t, f, port, true);
                 false
             }
             Lookup::Capacity => {
@@ -195,6 +184,43 @@ impl DestCache {
                 });
                 false
             }
+        }
+    }
+
+    /// Rule 5: the schedule's prefetch of untouched tile `t`, queued with
+    /// the prefetch requests; false if it is not untouched or no slot is
+    /// free (nothing changes).
+    pub fn prefetch(&mut self, now: Cycle, t: u32, f: &mut DestFrame, port: &mut MemPort) -> bool {
+        if !self.tags.prefetch(t) {
+            return false;
+        }
+        self.start_fresh_load(now, t, f, port, false);
+        true
+    }
+
+    /// A free slot exists.
+    pub fn has_room(&self) -> bool {
+        self.tags.has_room()
+    }
+
+    /// Rule 1: the load of a tile's first use in this warp, on `demand` (the
+    /// demand queue) or prefetched (the prefetch queue).
+    fn start_fresh_load(&mut self, now: Cycle, t: u32, f: &mut DestFrame, port: &mut MemPort, demand: bool) {
+        self.loads += 1;
+        if self.warp == 0 {
+            // First warp: the tile is empty, cleared on chip.
+            self.arrived(now, t, true, f);
+            return;
+        }
+        let bytes = self.packed_bytes[t as usize];
+        let req = Req { client: Client::TileFill, access: Access::Read, bytes, tag: Tag::Tile { tile: t, fresh: true } };
+        if demand {
+            port.demand(req);
+        } else {
+            port.prefetch(req);
+        }
+        if bytes == 0 {
+            self.arrived(now, t, true, f);
         }
     }
 

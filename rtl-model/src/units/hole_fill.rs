@@ -341,6 +341,12 @@ impl HoleFillStage {
         self.line >= self.unit.lines.len()
     }
 
+    /// Lines of the pass finished so far.
+    #[inline]
+    pub fn lines_done(&self) -> usize {
+        self.line
+    }
+
     /// The datapath (its line list and counters).
     pub fn unit(&self) -> &HoleFillUnit {
         &self.unit

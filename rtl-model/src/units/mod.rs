@@ -28,6 +28,7 @@ pub mod raster;
 pub mod resolve;
 pub mod tile_cache;
 pub mod tile_manager;
+pub mod tile_prefetch;
 pub mod transform;
 
 use crate::clock::Cycle;

@@ -13,9 +13,10 @@
 //! 1. Capacity is `dest_cache_bytes / (tile_size² · 16 B)` tiles
 //!    ([`crate::config::CACHE_BYTES_PER_SAMPLE`]).
 //! 2. An access to a resident tile is a hit. The first access to a tile in
-//!    a warp is a *compulsory* miss; an access to a tile spilled earlier in
-//!    the same warp is a *capacity* miss. An access to a tile whose load is
-//!    in flight waits and is not counted again.
+//!    a warp is a *compulsory* (and *demand*) miss; an access to a tile
+//!    spilled earlier in the same warp is a *capacity* miss. An access to a
+//!    tile whose load is in flight waits (a *late* miss); its retries are
+//!    not counted again.
 //! 3. A compulsory miss loads the tile in A-buffer format (as the previous
 //!    warp wrote it back); in a frame's first warp the tile is empty and is
 //!    cleared on chip without a memory read. Either way the cache-only
@@ -27,6 +28,12 @@
 //!    and happens only once per warp, on release).
 //! 5. On release the tile is packed to A-buffer format and written back;
 //!    its slot is free as soon as the write is queued.
+//! 6. A *prefetch* ([`TileCache::prefetch`], issued by the schedule,
+//!    `units::tile_prefetch`) takes a free slot for an untouched tile and
+//!    starts its load as a compulsory miss would, without an access; it
+//!    never spills (with no free slot it waits). An access that then finds
+//!    the load still in flight waits (a *late* miss); one that finds a tile
+//!    the schedule did not load is a *demand* miss.
 //!
 //! Not modelled: tag lookup latency and bank conflicts (an access to a
 //! resident tile costs nothing beyond the unit's cycle), write-buffer
@@ -72,8 +79,17 @@ pub struct TileCacheCounters {
     pub accesses: u64,
     /// Accesses that found the tile resident.
     pub hits: u64,
-    /// First use of a tile in a warp.
+    /// Tiles loaded for their first use in a warp, by the schedule's
+    /// prefetch or on demand.
     pub misses_compulsory: u64,
+    /// Accesses that found a tile the schedule had not loaded (untouched
+    /// in this warp): loaded on demand.
+    pub misses_demand: u64,
+    /// Accesses that found the tile's load in flight (a late prefetch, or
+    /// another unit's miss).
+    pub misses_late: u64,
+    /// Tiles the schedule loaded ahead of their first use.
+    pub prefetches: u64,
     /// Use of a tile spilled earlier in the same warp.
     pub misses_capacity: u64,
     /// Tiles spilled raw to make room.
@@ -167,7 +183,13 @@ impl TileCache {
                 self.lru.touch(t, now.get());
                 Lookup::Hit
             }
-            TileState::Loading => Lookup::Wait,
+            TileState::Loading => {
+                if counted {
+                    self.counters.accesses += 1;
+                    self.counters.misses_late += 1;
+                }
+                Lookup::Wait
+            }
             TileState::Untouched | TileState::Spilled => {
                 let mut spilled = None;
                 if self.held >= self.capacity {
@@ -186,6 +208,7 @@ impl TileCache {
                     self.counters.accesses += 1;
                     if st == TileState::Untouched {
                         self.counters.misses_compulsory += 1;
+                        self.counters.misses_demand += 1;
                     } else {
                         self.counters.misses_capacity += 1;
                     }
@@ -200,6 +223,29 @@ impl TileCache {
             self.counters.hits += 1;
         }
         (lookup, None)
+    }
+
+    /// Rule 6: take a free slot for untouched tile `t` and mark its load in
+    /// flight; false (nothing changes) if `t` is not untouched or no slot
+    /// is free.
+    #[inline]
+    pub fn prefetch(&mut self, t: u32) -> bool {
+        let ti = t as usize;
+        if self.state[ti] != TileState::Untouched || self.held >= self.capacity {
+            return false;
+        }
+        self.held += 1;
+        self.peak = self.peak.max(self.held);
+        self.state[ti] = TileState::Loading;
+        self.counters.prefetches += 1;
+        self.counters.misses_compulsory += 1;
+        true
+    }
+
+    /// A free slot exists.
+    #[inline]
+    pub fn has_room(&self) -> bool {
+        self.held < self.capacity
     }
 
     /// A load of tile `t` has arrived.
@@ -241,6 +287,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_prefetch_takes_a_free_slot_never_spills_and_turns_the_first_access_into_a_hit_or_a_late_miss() {
+        let mut c = TileCache::new(2, 4);
+        assert!(c.prefetch(0) && c.prefetch(1));
+        assert!(!c.prefetch(2), "full: a prefetch waits, it does not spill");
+        assert!(!c.prefetch(0), "already in flight");
+        assert_eq!(c.access(0, Cycle(1), true, &[]), (Lookup::Wait, None), "late");
+        c.loaded(0, Cycle(2));
+        c.loaded(1, Cycle(2));
+        assert_eq!(c.access(0, Cycle(3), true, &[]).0, Lookup::Hit);
+        // A demand miss may spill a prefetched tile.
+        assert_eq!(c.access(3, Cycle(4), true, &[]), (Lookup::Compulsory, Some(1)));
+        let k = &c.counters;
+        assert_eq!((k.accesses, k.hits, k.misses_late, k.misses_demand), (3, 1, 1, 1));
+        assert_eq!((k.prefetches, k.misses_compulsory, k.spills), (2, 3, 1));
+        assert_eq!(c.peak(), 2);
+    }
+
+    #[test]
     fn compulsory_then_hits_then_capacity_after_a_spill() {
         let mut c = TileCache::new(2, 4);
         assert_eq!(c.access(0, Cycle(0), true, &[]), (Lookup::Compulsory, None));
@@ -255,7 +319,8 @@ mod tests {
         assert_eq!(c.access(0, Cycle(6), true, &[1, 2]), (Lookup::Full, None));
         assert_eq!(c.access(0, Cycle(7), true, &[]), (Lookup::Capacity, Some(1)));
         let k = &c.counters;
-        assert_eq!((k.accesses, k.hits, k.misses_compulsory, k.misses_capacity, k.spills), (5, 1, 3, 1, 2));
+        assert_eq!((k.accesses, k.hits, k.misses_compulsory, k.misses_capacity, k.spills), (6, 1, 3, 1, 2));
+        assert_eq!((k.misses_demand, k.misses_late, k.prefetches), (3, 1, 0));
         c.loaded(0, Cycle(8));
         c.release(0);
         c.release(2);
