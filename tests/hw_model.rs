@@ -189,3 +189,43 @@ fn with_the_epipole_outside_the_image_a_warp_holds_a_band_not_a_sheet() {
         }
     }
 }
+
+/// The bundled trace `name`'s frame `k`.
+fn trace_frame(name: &str, k: usize) -> (FrameCommands, Vec<SampleImage>) {
+    let t = Trace::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("traces").join(name)).unwrap();
+    let refs = t.derived[k].references.iter().map(|&r| t.load_reference(r).unwrap().samples).collect();
+    (t.frame_commands(k), refs)
+}
+
+/// Issue 14 item 2: the software-managed cache. With the whole frame on
+/// chip the schedule's prefetch loads every tile before its first use (no
+/// demand and no capacity miss), the fill follows the warp to every tile
+/// (none held to the warp's end where the sweeps correspond), and turning
+/// the prefetch off brings the demand misses and the compositor's and hole
+/// fill's tile stalls back, with the same image.
+#[test]
+fn the_prefetch_loads_every_tile_before_its_use_and_distance_zero_brings_demand_misses_and_stalls_back() {
+    for name in ["room", "occluders", "hairball"] {
+        for k in [1, 3] {
+            let (cmd, imgs) = trace_frame(name, k);
+            let on = whole_frame_cache(&cmd);
+            assert!(on.tile_prefetch_distance > 0 && on.composite_miss_queue > 0, "the preset prefetches");
+            let off = EngineConfig { tile_prefetch_distance: 0, ..on.clone() };
+            let (a, b) = (run(&on, &cmd, &imgs), run(&off, &cmd, &imgs));
+            let (da, db) = (&a.stats.dest_cache, &b.stats.dest_cache);
+            let n = tiles_of(&cmd, &on) * cmd.warps.len() as u64;
+            assert_eq!((da.misses_demand, da.misses_capacity, da.prefetch_drops), (0, 0, 0), "{name} {k}: {da:?}");
+            assert_eq!((da.prefetches, da.misses_compulsory), (n, n), "{name} {k}");
+            assert_eq!(a.stats.tiles_held_to_warp_end, vec![0; cmd.warps.len()], "{name} {k}");
+            assert_eq!((db.prefetches, db.misses_demand), (0, n), "{name} {k}: every tile on demand");
+            let tile_stall = |o: &FrameOutput| {
+                let u = &o.stats.units;
+                u[4].stall_by_reason[postwarp_rtl::units::StallReason::Tile as usize]
+                    + u[5].stall_by_reason[postwarp_rtl::units::StallReason::Tile as usize]
+            };
+            assert!(tile_stall(&b) > 2 * tile_stall(&a), "{name} {k}: {} vs {}", tile_stall(&b), tile_stall(&a));
+            assert!(b.stats.cycles > a.stats.cycles, "{name} {k}");
+            assert_eq!(a.frame, b.frame, "{name} {k}: the prefetch changes when, never what");
+        }
+    }
+}

@@ -140,7 +140,13 @@ impl Model {
                 }
                 (Lookup::Hit, None)
             }
-            TileState::Loading => (Lookup::Wait, None),
+            TileState::Loading => {
+                if counted {
+                    self.counters.accesses += 1;
+                    self.counters.misses_late += 1;
+                }
+                (Lookup::Wait, None)
+            }
             st @ (TileState::Untouched | TileState::Spilled) => {
                 let mut victim = None;
                 if self.held() >= self.capacity {
@@ -156,7 +162,10 @@ impl Model {
                 if counted {
                     self.counters.accesses += 1;
                     match kind {
-                        LoadKind::Compulsory => self.counters.misses_compulsory += 1,
+                        LoadKind::Compulsory => {
+                            self.counters.misses_compulsory += 1;
+                            self.counters.misses_demand += 1;
+                        }
                         LoadKind::Capacity => self.counters.misses_capacity += 1,
                     }
                 }
@@ -303,7 +312,8 @@ impl Harness {
         prop_assert!(self.cache.occupancy() <= self.cache.capacity());
         prop_assert_eq!(&self.cache.counters, &self.m.counters);
         let k = &self.cache.counters;
-        prop_assert_eq!(k.accesses, k.hits + k.misses_compulsory + k.misses_capacity);
+        prop_assert_eq!(k.accesses, k.hits + k.misses_demand + k.misses_late + k.misses_capacity);
+        prop_assert_eq!(k.misses_compulsory, k.misses_demand + k.prefetches);
         prop_assert_eq!(k.spills, self.spills_seen);
         // A load is a miss, counted unless the look-up that started it was
         // marked as a retry (`docs/stats.md`: the packer's look-ups and

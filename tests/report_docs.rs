@@ -135,12 +135,18 @@ fn reports_round_trip_and_newer_versions_are_refused() {
     let text = std::fs::read_to_string(out.join("report.json")).unwrap();
     let Report::Simulate(s) = postwarp::report::load(&out).unwrap() else { panic!() };
     assert_eq!(serde_json::to_string_pretty(&s).unwrap() + "\n", text, "read and written again, byte for byte");
-    let newer = text.replacen("\"report_version\": 3", "\"report_version\": 4", 1);
+    let (now, next) = (postwarp::report::REPORT_VERSION, postwarp::report::REPORT_VERSION + 1);
+    let newer = text.replacen(&format!("\"report_version\": {now}"), &format!("\"report_version\": {next}"), 1);
+    assert_ne!(newer, text);
     let e = postwarp::report::parse(&newer, Path::new("x/report.json")).unwrap_err().to_string();
-    assert!(e.contains("x/report.json: report_version 4 was written by a newer postwarp"), "{e}");
+    assert!(e.contains(&format!("x/report.json: report_version {next} was written by a newer postwarp")), "{e}");
+    // Version 3 (before the prefetch) reads, its new keys 0.
+    let v3 = text.replacen(&format!("\"report_version\": {now}"), "\"report_version\": 3", 1);
+    let Report::Simulate(s3) = postwarp::report::parse(&v3, Path::new("v3.json")).unwrap() else { panic!() };
+    assert_eq!(s3.report_version, 3);
     // Version 2 called the hardware's `abuffer_fragments` `max_fragments`.
     let v2 = text
-        .replacen("\"report_version\": 3", "\"report_version\": 2", 1)
+        .replacen(&format!("\"report_version\": {now}"), "\"report_version\": 2", 1)
         .replace(&format!("\"abuffer_fragments\": {}", s.config["abuffer_fragments"]), "\"max_fragments\": 2");
     assert!(v2.contains("\"max_fragments\": 2"));
     let Report::Simulate(old) = postwarp::report::parse(&v2, Path::new("v2.json")).unwrap() else { panic!() };

@@ -19,7 +19,9 @@
 //! 5. Composite (`units::composite`).
 //! 6. Raster (`units::raster`).
 //! 7. Kernel setup (`units::kernel_setup`), then the tile manager's
-//!    retirement (`units::tile_manager`).
+//!    retirement (`units::tile_manager`), then the schedule's tile
+//!    prefetch (`units::tile_prefetch`) ahead of kernel setup's and the
+//!    hole fill's line cursors.
 //! 8. Fetch (`units::fetch`) into the transform pipeline, then the
 //!    transform's state (`units::transform`).
 //!
@@ -551,7 +553,7 @@ impl<'s> Pipeline<'s> {
             prefetch: TilePrefetch::new(&sched.first, &plan.fill_first, cfg.tile_prefetch_distance),
             held_to_end: None,
             fill: HoleFillStage::new(plan.fill.clone(), cfg.hole_fill_per_cycle, a()),
-            packer: PackerStage::new(&plan.releases, abuffer_params(cfg), now, a()),
+            packer: PackerStage::new(&plan.releases, abuffer_params(cfg), cfg.packer_pixels_per_cycle, now, a()),
         }
     }
 

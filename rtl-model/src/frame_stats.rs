@@ -151,6 +151,11 @@ pub const FRAME_STATS: &[StatDef] = &[
         "look-ups that found the tile's load still in flight (a late prefetch or another unit's miss)",
     ),
     StatDef::counter("dest_cache.prefetches", "tiles", "tiles the schedule loaded ahead of their first use"),
+    StatDef::counter(
+        "dest_cache.prefetch_drops",
+        "tiles",
+        "prefetched tiles dropped unused (clean, no write) to make room for a miss",
+    ),
     StatDef::counter("dest_cache.misses_capacity", "accesses", "use of a tile spilled earlier in the same warp"),
     StatDef::counter("dest_cache.spills", "tiles", "tiles spilled raw to make room"),
     StatDef::counter("source_cache.block_reads", "blocks", "reference block reads issued, over all warps"),
@@ -268,6 +273,7 @@ impl FrameStats {
         put("dest_cache.misses_demand".into(), c.misses_demand);
         put("dest_cache.misses_late".into(), c.misses_late);
         put("dest_cache.prefetches".into(), c.prefetches);
+        put("dest_cache.prefetch_drops".into(), c.prefetch_drops);
         put("dest_cache.misses_capacity".into(), c.misses_capacity);
         put("dest_cache.spills".into(), c.spills);
         let s = &self.source_cache;

@@ -104,7 +104,7 @@ impl Bench {
 #[test]
 fn a_stamp_pushed_at_p_is_composited_at_p_plus_1_and_not_before() {
     let w = warp();
-    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, activity(Cycle(0)));
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 0, activity(Cycle(0)));
     let mut b = Bench::new(4, 0, 0);
     b.make_resident(Cycle(0), 0);
     b.tiles.kernel_issued(0);
@@ -129,7 +129,7 @@ fn a_stamp_pushed_at_p_is_composited_at_p_plus_1_and_not_before() {
 #[test]
 fn a_stamp_waits_on_its_tile_until_the_load_arrives_counted_once_and_blocks_the_next() {
     let w = warp();
-    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 2, activity(Cycle(0)));
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 2, 0, activity(Cycle(0)));
     // Warp 1: every tile was written back as 100 bytes in warp 0.
     let mut b = Bench::new(4, 1, 100);
     b.make_resident(Cycle(0), 3);
@@ -163,7 +163,7 @@ fn a_stamp_waits_on_its_tile_until_the_load_arrives_counted_once_and_blocks_the_
 #[test]
 fn the_tiles_of_a_stamp_are_pinned_against_spills_and_it_goes_once_all_are_resident() {
     let w = warp();
-    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, activity(Cycle(0)));
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 0, activity(Cycle(0)));
     // Two slots; tile 2 was used by the hole fill (phase 4) in this cycle.
     let mut b = Bench::new(2, 0, 0);
     let now = Cycle(5);
@@ -186,7 +186,7 @@ fn the_tiles_of_a_stamp_are_pinned_against_spills_and_it_goes_once_all_are_resid
 #[test]
 fn a_stamp_over_four_tiles_looks_each_up_once() {
     let w = warp();
-    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, activity(Cycle(0)));
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 0, activity(Cycle(0)));
     let mut b = Bench::new(4, 0, 0);
     for t in 0..4 {
         b.make_resident(Cycle(0), t);
@@ -198,4 +198,57 @@ fn a_stamp_over_four_tiles_looks_each_up_once() {
     let k2 = &b.cache.tags().counters;
     assert_eq!((k2.accesses - k.accesses, k2.hits - k.hits), (4, 4));
     assert_eq!(c.verdicts()[Verdict::Filled as usize], 8);
+}
+
+/// Rule 6: with a miss queue, a stamp waiting for its tile steps aside and
+/// the next stamp, on a resident tile, goes at once; a stamp sharing the
+/// waiting stamp's tile never passes it; the queued stamp goes in the cycle
+/// its load arrives, not before.
+#[test]
+fn the_miss_queue_lets_the_compositor_proceed_past_a_missing_tile_but_never_past_a_shared_one() {
+    let w = warp();
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 2, activity(Cycle(0)));
+    let mut b = Bench::new(4, 1, 100);
+    b.make_resident(Cycle(0), 3);
+    for l in [0, 3, 0] {
+        b.tiles.kernel_issued(l);
+    }
+    b.input.push(Cycle(0), stamp(0, (0, 1), (0, 1), 0.6)).unwrap(); // tile 0, loading
+    b.input.push(Cycle(0), stamp(3, (5, 6), (5, 6), 0.8)).unwrap(); // tile 3, resident
+    b.input.push(Cycle(0), stamp(0, (1, 2), (1, 2), 0.9)).unwrap(); // tile 0 again: overlaps the first
+    let mut log = TickLog::new(Cycle(0));
+    // Cycle 1: the first stamp misses and moves to the queue (no lane used).
+    let t = log.note(Cycle(1), b.tick(&mut c, Cycle(1)));
+    assert_eq!(t.state, UnitState::Busy, "the tile-3 stamp went in the same cycle");
+    assert!(b.written(5, 5) && !b.written(0, 0), "past the missing tile");
+    assert_eq!(c.bypasses(), 1);
+    // Cycle 2: the third stamp shares tile 0: it queues behind the first.
+    let t = log.note(Cycle(2), b.tick(&mut c, Cycle(2)));
+    assert_eq!(t.state, stall(StallReason::Tile));
+    assert!(!b.written(1, 1) && !b.written(2, 2) && !c.is_idle());
+    let arrival = Cycle(20);
+    for now in [Cycle(3), arrival - 1] {
+        assert_eq!(log.note(now, b.tick(&mut c, now)).state, stall(StallReason::Tile), "{now}");
+    }
+    b.cache.arrived(arrival, 0, true, &mut b.frame);
+    assert_eq!(log.note(arrival, b.tick(&mut c, arrival)).state, UnitState::Busy);
+    // One lane: the older stamp first; (1, 1) holds its colour until the
+    // overlapping one goes a cycle later, in FIFO order.
+    assert_eq!(b.frame.colour[b.frame.index(1, 1)], [0.6, 0.5, 0.5]);
+    assert_eq!(log.note(arrival + 1, b.tick(&mut c, arrival + 1)).state, UnitState::Busy);
+    assert_eq!(b.frame.colour[b.frame.index(2, 2)], [0.9, 0.5, 0.5]);
+    assert_eq!(b.frame.colour[b.frame.index(1, 1)][0], 0.6, "same reference, within tolerance: the stored stays");
+    assert!(c.is_idle());
+    assert_eq!(log.note(arrival + 2, b.tick(&mut c, arrival + 2)).state, UnitState::Idle);
+    log.check(Cycle(30), c.close(Cycle(30)));
+    // Without a queue the same stamps go strictly in order.
+    let mut c0 = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 0, activity(Cycle(0)));
+    let mut b0 = Bench::new(4, 1, 100);
+    b0.make_resident(Cycle(0), 3);
+    b0.tiles.kernel_issued(0);
+    b0.tiles.kernel_issued(3);
+    b0.input.push(Cycle(0), stamp(0, (0, 1), (0, 1), 0.6)).unwrap();
+    b0.input.push(Cycle(0), stamp(3, (5, 6), (5, 6), 0.8)).unwrap();
+    assert_eq!(b0.tick(&mut c0, Cycle(1)).state, stall(StallReason::Tile));
+    assert!(!b0.written(5, 5), "blocked behind the missing tile");
 }

@@ -81,7 +81,7 @@ impl Bench {
 }
 
 fn packer(now: Cycle) -> PackerStage<'static> {
-    PackerStage::new(&RELEASES, abuffer_params(&config()), now, activity(now))
+    PackerStage::new(&RELEASES, abuffer_params(&config()), 1, now, activity(now))
 }
 
 #[test]
@@ -179,4 +179,21 @@ fn a_tile_not_resident_stalls_the_releases_in_order_on_tile_and_the_look_up_is_n
     assert_eq!((b.cache.state(0), b.cache.state(1)), (TileState::Released, TileState::Resident));
     assert_eq!(b.cache.tags().counters, k0, "the packer's look-ups are never counted");
     log.check(n + 3, p.close(n + 3));
+}
+
+#[test]
+fn with_lanes_a_tile_occupies_the_packer_for_its_pixels_divided_by_the_lanes_rounded_up() {
+    for lanes in [2u32, 3, 8] {
+        let mut b = Bench::new(0, true);
+        let mut p = PackerStage::new(&RELEASES, abuffer_params(&config()), lanes, Cycle(0), activity(Cycle(0)));
+        let n = Cycle(4);
+        assert!(b.tick(&mut p, n, 8).moved);
+        let busy = PACK_CYCLES.div_ceil(lanes as u64);
+        assert_eq!(p.next_event(n), Some(n + busy), "{lanes} lanes");
+        // Tile 1 is due at once: it leaves at N + busy, not a cycle before.
+        assert!(!b.tick(&mut p, n + (busy - 1), 8).moved);
+        assert_eq!(b.cache.state(1), TileState::Resident);
+        assert!(b.tick(&mut p, n + busy, 8).moved);
+        assert_eq!(b.cache.state(1), TileState::Released, "{lanes} lanes");
+    }
 }

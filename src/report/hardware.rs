@@ -72,8 +72,22 @@ pub struct DestCache<N> {
     pub accesses: N,
     /// Look-ups that found the tile resident (accesses).
     pub hits: N,
-    /// First use of a tile in a warp (accesses).
+    /// Tiles loaded for their first use in a warp, by prefetch or on
+    /// demand (tiles; before report_version 4: accesses, the same count
+    /// without a prefetch).
     pub misses_compulsory: N,
+    /// Look-ups that found a tile the schedule had not loaded (accesses).
+    #[serde(default)]
+    pub misses_demand: N,
+    /// Look-ups that found the tile's load in flight (accesses).
+    #[serde(default)]
+    pub misses_late: N,
+    /// Tiles the schedule loaded ahead of their first use (tiles).
+    #[serde(default)]
+    pub prefetches: N,
+    /// Prefetched tiles dropped unused to make room (tiles).
+    #[serde(default)]
+    pub prefetch_drops: N,
     /// Use of a tile spilled earlier in the warp (accesses).
     pub misses_capacity: N,
     /// Tiles spilled raw to make room (tiles).
@@ -181,6 +195,13 @@ pub struct HwCounters<N> {
     /// Most destination tiles held at once, per reference warp (tiles).
     #[serde(default)]
     pub peak_tiles: Vec<N>,
+    /// Tiles held when the warp's last line was set up, last written in an
+    /// earlier sweep, per reference warp (tiles).
+    #[serde(default)]
+    pub tiles_held_to_warp_end: Vec<N>,
+    /// Stamps composited ahead of an older stamp in the miss queue (stamps).
+    #[serde(default)]
+    pub composite_bypasses: N,
     /// The working-set model's prediction per reference warp (tiles).
     #[serde(default)]
     pub ws_model_tiles: Vec<N>,
@@ -286,6 +307,10 @@ impl HwCounters<u64> {
                 accesses: d.accesses,
                 hits: d.hits,
                 misses_compulsory: d.misses_compulsory,
+                misses_demand: d.misses_demand,
+                misses_late: d.misses_late,
+                prefetches: d.prefetches,
+                prefetch_drops: d.prefetch_drops,
                 misses_capacity: d.misses_capacity,
                 spills: d.spills,
             },
@@ -297,6 +322,8 @@ impl HwCounters<u64> {
             tile_loads: s.tile_loads.clone(),
             tile_evictions: s.tile_evictions.clone(),
             peak_tiles: s.peak_tiles.clone(),
+            tiles_held_to_warp_end: s.tiles_held_to_warp_end.clone(),
+            composite_bypasses: s.composite_bypasses,
             ws_model_tiles: s.ws_model_tiles.clone(),
             display_pixels: s.display_pixels,
             reference_packed_bytes: s.reference_packed_bytes,
@@ -473,7 +500,33 @@ fn dest_cache_keys() -> Vec<KeyDoc> {
              retries after a wait and the packer's look-ups are not counted",
         ),
         scalar("hits", "accesses", Reduce::Sum, "look-ups that found the tile resident"),
-        scalar("misses_compulsory", "accesses", Reduce::Sum, "first use of a tile in a warp"),
+        scalar(
+            "misses_compulsory",
+            "tiles",
+            Reduce::Sum,
+            "tiles loaded for their first use in a warp, by the schedule's prefetch or on demand \
+             (`prefetches + misses_demand`)",
+        ),
+        scalar(
+            "misses_demand",
+            "accesses",
+            Reduce::Sum,
+            "look-ups that found a tile the schedule had not loaded (never prefetched, or prefetched and dropped \
+             unused): loaded on demand; 0 when the prefetch covers every use",
+        ),
+        scalar(
+            "misses_late",
+            "accesses",
+            Reduce::Sum,
+            "look-ups that found the tile's load still in flight: a prefetch issued too late, or another unit's miss",
+        ),
+        scalar("prefetches", "tiles", Reduce::Sum, "tiles the schedule loaded ahead of their first use"),
+        scalar(
+            "prefetch_drops",
+            "tiles",
+            Reduce::Sum,
+            "prefetched tiles dropped unused (clean: no write) to make room for a miss",
+        ),
         scalar("misses_capacity", "accesses", Reduce::Sum, "use of a tile spilled earlier in the same warp"),
         scalar("spills", "tiles", Reduce::Sum, "tiles spilled raw to make room"),
     ]
@@ -637,6 +690,19 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             meaning: "per reference warp: the most destination tiles held in the cache at once (resident or loading); \
                       the warp's working set when the cache is large enough not to spill",
         },
+        list(
+            "tiles_held_to_warp_end",
+            "tiles",
+            "per reference warp: destination tiles still held (loading, resident or spilled) when kernel setup set up \
+             the warp's last line although their last write came in an earlier sweep: the hole fill could not follow \
+             the warp to them, so fill on eviction failed for them; 0 when the warp's sweeps correspond to the fill's",
+        ),
+        scalar(
+            "composite_bypasses",
+            "stamps",
+            Reduce::Sum,
+            "stamps the compositor drew ahead of an older stamp waiting in its miss queue for a tile",
+        ),
         KeyDoc {
             key: "ws_model_tiles",
             unit: "tiles",

@@ -44,6 +44,7 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
         "hole_far_offset" => c.hole_far_offset = u32v()?,
         "hole_max_distance" => c.hole_max_distance = u32v()?,
         "hole_fill_per_cycle" => c.hole_fill_per_cycle = u32v()?,
+        "packer_pixels_per_cycle" => c.packer_pixels_per_cycle = u32v()?,
         "tile_prefetch_distance" => c.tile_prefetch_distance = u32v()?,
         "composite_miss_queue" => c.composite_miss_queue = u32v()?,
         "fallback_fill" => c.fallback_fill = boolean()?,
@@ -127,6 +128,7 @@ pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
         "hole_far_offset" => i(c.hole_far_offset.into()),
         "hole_max_distance" => i(c.hole_max_distance.into()),
         "hole_fill_per_cycle" => i(c.hole_fill_per_cycle.into()),
+        "packer_pixels_per_cycle" => i(c.packer_pixels_per_cycle.into()),
         "tile_prefetch_distance" => i(c.tile_prefetch_distance.into()),
         "composite_miss_queue" => i(c.composite_miss_queue.into()),
         "fallback_fill" => V::Boolean(c.fallback_fill),
@@ -225,7 +227,7 @@ mod tests {
         assert_eq!(set(&mut c, "fallback_fill", &toml::Value::Integer(1)), Err("expected true or false".into()));
         let j = to_json(&EngineConfig::default());
         assert_eq!(j.as_object().unwrap().len(), KNOBS.len());
-        assert_eq!(j["dest_cache_bytes"], 589_824);
+        assert_eq!(j["dest_cache_bytes"], 1_048_576);
         assert_eq!(j["threshold"], 1.4);
         assert_eq!(j["target_frame_rate_hz"], 30.0);
     }

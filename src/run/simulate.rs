@@ -311,14 +311,20 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     let tile_bytes = (cfg.tile_size as u64).pow(2) * postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;
     let model = r.frames.iter().flat_map(|f| f.counters.ws_model_tiles.iter().copied()).max().unwrap_or(0);
     let ratio = r.frames.iter().filter_map(|f| f.rates.peak_over_ws_model).fold(f64::NAN, f64::max);
+    let d = &r.total.counters.dest_cache;
     let _ = writeln!(
         s,
         "destination cache: peak {peak} tiles held ({:.0} KiB) of {} ({} KiB); working-set model up to {model} tiles, \
-         peak / model up to {ratio:.2}; capacity misses {} over the frames",
+         peak / model up to {ratio:.2}; over the frames {} tiles prefetched, {} demand, {} late and {} capacity \
+         misses; {} tiles held to a warp's end",
         (peak * tile_bytes) as f64 / 1024.0,
         cfg.dest_cache_bytes / tile_bytes,
         cfg.dest_cache_bytes / 1024,
-        r.total.counters.dest_cache.misses_capacity,
+        d.prefetches,
+        d.misses_demand,
+        d.misses_late,
+        d.misses_capacity,
+        r.total.counters.tiles_held_to_warp_end.iter().sum::<u64>(),
     );
     s
 }

@@ -293,7 +293,7 @@ mod tests {
         assert_ne!(a.key("t", 2), a.key("u", 2));
         assert_ne!(a.key("t", 2), a.key("t", 1));
         let h = PointRun::Hardware { preset: "mark1998".into(), config: EngineConfig::default() };
-        assert!(h.key("t", 1).contains("\"dest_cache_bytes\":589824"));
+        assert!(h.key("t", 1).contains("\"dest_cache_bytes\":1048576"));
         assert_eq!(h.hole_fill(), "");
     }
 }

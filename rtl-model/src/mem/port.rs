@@ -13,7 +13,7 @@
 //!
 //! Rules:
 //! 1. Priority: demand tile loads > write-backs and spills > source
-//!    prefetch > display reads. Within a queue, oldest first.
+//!    and tile prefetch (one queue) > display reads. Within a queue, oldest first.
 //! 2. Only the head of the highest non-empty queue is offered; if the DRAM
 //!    refuses it, nothing is issued this cycle (no bypass).
 //! 3. Every request carries a [`Tag`] that comes back on its completion.

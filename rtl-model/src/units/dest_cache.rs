@@ -213,7 +213,8 @@ impl DestCache {
             return;
         }
         let bytes = self.packed_bytes[t as usize];
-        let req = Req { client: Client::TileFill, access: Access::Read, bytes, tag: Tag::Tile { tile: t, fresh: true } };
+        let req =
+            Req { client: Client::TileFill, access: Access::Read, bytes, tag: Tag::Tile { tile: t, fresh: true } };
         if demand {
             port.demand(req);
         } else {

@@ -12,9 +12,10 @@
 //! the destination cache; out, write-back requests to the memory port's
 //! write queue.
 //!
-//! Throughput: one pixel per clock: a tile occupies the packer for
-//! (`tile_size` / `supersample`)² cycles, during which it is *busy*; its
-//! write-back is queued when the release starts.
+//! Throughput: `packer_pixels_per_cycle` pixels per clock (lanes): a tile
+//! occupies the packer for ⌈(`tile_size` / `supersample`)² / lanes⌉
+//! cycles, during which it is *busy*; its write-back is queued when the
+//! release starts.
 //!
 //! Rules:
 //! 1. Tiles are released strictly in release order, each only once the
@@ -54,6 +55,8 @@ pub struct PackerPorts<'a> {
 pub struct PackerStage<'s> {
     releases: &'s [(u64, u32)],
     params: AbufferParams,
+    /// Pixels packed per cycle.
+    lanes: u32,
     next: usize,
     /// The cycle from which the packer is free.
     free_at: Cycle,
@@ -63,12 +66,14 @@ pub struct PackerStage<'s> {
 }
 
 impl<'s> PackerStage<'s> {
-    /// A packer releasing `releases` (visits needed, tile) in order with
-    /// the A-buffer format `params`, free from `now`, accounted by `activity`.
-    pub fn new(releases: &'s [(u64, u32)], params: AbufferParams, now: Cycle, activity: Activity) -> Self {
+    /// A packer of `lanes` pixels per cycle releasing `releases` (visits
+    /// needed, tile) in order with the A-buffer format `params`, free from
+    /// `now`, accounted by `activity`.
+    pub fn new(releases: &'s [(u64, u32)], params: AbufferParams, lanes: u32, now: Cycle, activity: Activity) -> Self {
         PackerStage {
             releases,
             params,
+            lanes,
             next: 0,
             free_at: now,
             evictions: 0,
@@ -121,7 +126,7 @@ impl<'s> PackerStage<'s> {
         io.cache.release(t, bytes);
         self.evictions += 1;
         self.next += 1;
-        self.free_at = now + u64::from(side * side);
+        self.free_at = now + u64::from((side * side).div_ceil(self.lanes));
     }
 
     /// End the warp at `now`; the unit's cycles and (when recording) its

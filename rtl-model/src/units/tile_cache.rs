@@ -31,9 +31,14 @@
 //! 6. A *prefetch* ([`TileCache::prefetch`], issued by the schedule,
 //!    `units::tile_prefetch`) takes a free slot for an untouched tile and
 //!    starts its load as a compulsory miss would, without an access; it
-//!    never spills (with no free slot it waits). An access that then finds
+//!    never spills, and leaves an eighth of the slots to misses (with
+//!    fewer free it waits). An access that then finds
 //!    the load still in flight waits (a *late* miss); one that finds a tile
 //!    the schedule did not load is a *demand* miss.
+//! 7. A miss that needs room first drops the newest prefetched tile not
+//!    yet used: it is clean (as loaded), so it goes without a write and is
+//!    untouched again (its next access is a demand miss). Only with none
+//!    does it spill by rule 4.
 //!
 //! Not modelled: tag lookup latency and bank conflicts (an access to a
 //! resident tile costs nothing beyond the unit's cycle), write-buffer
@@ -90,6 +95,8 @@ pub struct TileCacheCounters {
     pub misses_late: u64,
     /// Tiles the schedule loaded ahead of their first use.
     pub prefetches: u64,
+    /// Prefetched tiles dropped unused to make room (clean: no write).
+    pub prefetch_drops: u64,
     /// Use of a tile spilled earlier in the same warp.
     pub misses_capacity: u64,
     /// Tiles spilled raw to make room.
@@ -107,6 +114,10 @@ pub struct TileCache {
     held: usize,
     /// Most tiles held at once since the warp began.
     peak: usize,
+    /// Prefetched tiles, newest last (rule 7; entries go stale once used).
+    prefetched: Vec<u32>,
+    /// Per tile: accessed since it arrived in this warp.
+    used: Vec<bool>,
     /// Counters since the cache was made.
     pub counters: TileCacheCounters,
 }
@@ -120,6 +131,8 @@ impl TileCache {
             lru: Lru::new(tiles),
             held: 0,
             peak: 0,
+            prefetched: Vec::new(),
+            used: vec![false; tiles],
             counters: TileCacheCounters::default(),
         }
     }
@@ -145,6 +158,8 @@ impl TileCache {
         debug_assert_eq!(self.held, 0, "tiles still held at a warp boundary");
         self.state.fill(TileState::Untouched);
         self.lru.clear();
+        self.prefetched.clear();
+        self.used.fill(false);
         self.peak = 0;
     }
 
@@ -162,6 +177,7 @@ impl TileCache {
         if self.state[ti] != TileState::Resident {
             return false;
         }
+        self.used[ti] = true;
         self.lru.touch(t, now.get());
         if counted {
             self.counters.accesses += 1;
@@ -180,6 +196,7 @@ impl TileCache {
         let st = self.state[ti];
         let lookup = match st {
             TileState::Resident => {
+                self.used[ti] = true;
                 self.lru.touch(t, now.get());
                 Lookup::Hit
             }
@@ -192,7 +209,7 @@ impl TileCache {
             }
             TileState::Untouched | TileState::Spilled => {
                 let mut spilled = None;
-                if self.held >= self.capacity {
+                if self.held >= self.capacity && !self.drop_unused(pinned) {
                     match self.victim(pinned) {
                         Some(v) => {
                             self.spill(v);
@@ -231,9 +248,11 @@ impl TileCache {
     #[inline]
     pub fn prefetch(&mut self, t: u32) -> bool {
         let ti = t as usize;
-        if self.state[ti] != TileState::Untouched || self.held >= self.capacity {
+        if self.state[ti] != TileState::Untouched || self.held + self.capacity / 8 >= self.capacity {
             return false;
         }
+        self.prefetched.push(t);
+        self.used[ti] = false;
         self.held += 1;
         self.peak = self.peak.max(self.held);
         self.state[ti] = TileState::Loading;
@@ -275,6 +294,27 @@ impl TileCache {
         self.lru.victim(|t| !pinned.contains(&t))
     }
 
+    /// Rule 7: drop the newest prefetched tile not used yet (resident,
+    /// unpinned); false if there is none.
+    fn drop_unused(&mut self, pinned: &[u32]) -> bool {
+        while let Some(&t) = self.prefetched.last() {
+            let ti = t as usize;
+            if self.state[ti] != TileState::Resident || self.used[ti] {
+                self.prefetched.pop();
+                continue;
+            }
+            if pinned.contains(&t) {
+                return false;
+            }
+            self.prefetched.pop();
+            self.remove_resident(t);
+            self.state[ti] = TileState::Untouched;
+            self.counters.prefetch_drops += 1;
+            return true;
+        }
+        false
+    }
+
     fn spill(&mut self, t: u32) {
         self.remove_resident(t);
         self.state[t as usize] = TileState::Spilled;
@@ -296,11 +336,16 @@ mod tests {
         c.loaded(0, Cycle(2));
         c.loaded(1, Cycle(2));
         assert_eq!(c.access(0, Cycle(3), true, &[]).0, Lookup::Hit);
-        // A demand miss may spill a prefetched tile.
-        assert_eq!(c.access(3, Cycle(4), true, &[]), (Lookup::Compulsory, Some(1)));
+        // A demand miss drops the unused prefetched tile 1 (clean: no write,
+        // untouched again) rather than spill the used tile 0.
+        assert_eq!(c.access(3, Cycle(4), true, &[]), (Lookup::Compulsory, None));
+        assert_eq!((c.state(1), c.state(0)), (TileState::Untouched, TileState::Resident));
+        c.loaded(3, Cycle(5));
+        // With no unused prefetch left, a miss spills by LRU.
+        assert_eq!(c.access(2, Cycle(6), true, &[]), (Lookup::Compulsory, Some(0)));
         let k = &c.counters;
-        assert_eq!((k.accesses, k.hits, k.misses_late, k.misses_demand), (3, 1, 1, 1));
-        assert_eq!((k.prefetches, k.misses_compulsory, k.spills), (2, 3, 1));
+        assert_eq!((k.accesses, k.hits, k.misses_late, k.misses_demand), (4, 1, 1, 2));
+        assert_eq!((k.prefetches, k.prefetch_drops, k.misses_compulsory, k.spills), (2, 1, 4, 1));
         assert_eq!(c.peak(), 2);
     }
 
