@@ -1,11 +1,10 @@
 //! Speed of the golden model against the plain forward splat, on one core.
 //!
-//! Input, built once in memory as `postwarp make-trace --scene room --width
-//! 640 --height 480 --supersample 2` would (default spec otherwise: 88x68°
-//! references, spline path, prediction 0.4 s, start 0.5 s): derived frame 3
-//! and its references 0 and 1 (2140x1496 samples each), colour rounded to
-//! half as the trace stores it, both passed through the A-buffer
-//! (`prepare_reference`). Both methods warp the same prepared references.
+//! Input: the standard frame of `postwarp::bench` (`room` at 640x480 with
+//! 2x2 samples, derived frame 3 and its references 0 and 1, 2140x1496
+//! samples each, built in memory), both references passed through the
+//! A-buffer (`prepare_reference`). Both methods warp the same prepared
+//! references. `postwarp bench` times the same frame the same way.
 //!
 //! Throughput is in reference samples per second: the valid samples of both
 //! references per derived frame.
@@ -13,17 +12,13 @@
 //! Run: `cargo bench --bench golden`.
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
+use postwarp::bench::{BenchFrame, standard_spec};
 use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
 use postwarp::methods::baselines::forward_splat::forward_splat_with;
-use postwarp::scene::Scene;
-use postwarp::tracegen::{TraceSpec, frame_in_memory};
 use postwarp_rtl::{FrameCommands, SampleImage};
 use std::hint::black_box;
 use std::time::Duration;
-
-/// Derived frame benchmarked (its references are 0 and 1).
-const FRAME: usize = 3;
 
 /// One derived frame's commands and its prepared references.
 struct Input {
@@ -31,14 +26,12 @@ struct Input {
     refs: Vec<PreparedReference>,
 }
 
-/// Rebuild what `make-trace` writes for derived frame [`FRAME`] of `room`.
+/// The standard frame, its references through the A-buffer.
 fn input() -> Input {
-    let spec = TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() };
-    let scene = Scene::builtin("room").expect("built-in scene `room`");
-    let (cmd, imgs) = frame_in_memory(&scene, &spec, FRAME).expect("bench frame");
+    let f = BenchFrame::new(standard_spec()).expect("bench frame");
     let cfg = GoldenConfig::default();
-    let refs = imgs.iter().map(|img| prepare_reference(img, spec.supersample, &cfg)).collect();
-    Input { cmd, refs }
+    let refs = f.refs.iter().map(|img| prepare_reference(img, f.spec.supersample, &cfg)).collect();
+    Input { cmd: f.cmd, refs }
 }
 
 fn bench(c: &mut Criterion) {

@@ -1,10 +1,10 @@
 //! Speed of the hardware model: simulated cycles per host second and host
 //! seconds per derived frame, on one core.
 //!
-//! Input: the golden benchmark's frame (`benches/golden.rs`): `room` at
-//! 640x480 with 2x2 samples, derived frame 3 from references 0 and 1
-//! (2140x1496 samples each), built in memory by
-//! `tracegen::frame_in_memory`; the references are packed to A-buffer
+//! Input: the golden benchmark's frame (`postwarp::bench`, as
+//! `benches/golden.rs` and `postwarp bench` use it): `room` at 640x480 with
+//! 2x2 samples, derived frame 3 from references 0 and 1 (2140x1496 samples
+//! each), built in memory; the references are packed to A-buffer
 //! format once (`HwReference::new`), outside the measurement. The
 //! configuration is the `mark1998` preset.
 //!
@@ -13,17 +13,14 @@
 //! cycles per host second = cycles / time.
 
 use criterion::{Criterion, SamplingMode, criterion_group, criterion_main};
-use postwarp::scene::Scene;
-use postwarp::tracegen::{TraceSpec, frame_in_memory};
+use postwarp::bench::{BenchFrame, standard_spec};
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{Engine, HwReference};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 fn bench(c: &mut Criterion) {
-    let spec = TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() };
-    let scene = Scene::builtin("room").expect("built-in scene `room`");
-    let (cmd, imgs) = frame_in_memory(&scene, &spec, 3).expect("bench frame");
+    let BenchFrame { cmd, refs: imgs, .. } = BenchFrame::new(standard_spec()).expect("bench frame");
     let cfg = EngineConfig::default();
     let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, &cfg)).collect();
     let refs: Vec<&HwReference> = refs.iter().collect();

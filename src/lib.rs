@@ -6,6 +6,7 @@
 //! (frame commands) → golden model | hardware units → images + stats →
 //! report. See `ARCHITECTURE.md`.
 
+pub mod bench;
 pub mod chart;
 pub mod cli;
 pub mod fuzz_entry;

@@ -8,19 +8,84 @@
 use crate::io_util::write_atomically;
 use std::path::Path;
 
-/// sRGB EOTF: an 8-bit code to linear intensity in [0, 1].
+/// sRGB EOTF: an 8-bit code to linear intensity in [0, 1] (a table of the
+/// 256 values of [`srgb_to_linear_formula`]).
 pub fn srgb_to_linear(code: u8) -> f32 {
+    tables().to_linear[code as usize]
+}
+
+/// The sRGB EOTF as a formula (what [`srgb_to_linear`] tabulates).
+fn srgb_to_linear_formula(code: u8) -> f32 {
     let c = code as f64 / 255.0;
     let l = if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) };
     l as f32
 }
 
 /// Inverse sRGB EOTF, rounded to the nearest 8-bit code (clamped to [0, 1];
-/// NaN maps to 0).
+/// NaN maps to 0). The same code as [`linear_to_srgb8_formula`] for every
+/// `f32`: that formula is monotonic in `l`, so the code is the number of
+/// code boundaries (the smallest `f32` giving each code 1..=255, found by
+/// bisection on the formula once) at or below `l` (tested around every
+/// boundary and on a sweep of values).
 pub fn linear_to_srgb8(l: f32) -> u8 {
+    if l.is_nan() || l <= 0.0 {
+        return 0;
+    }
+    let t = &tables().boundary;
+    // Binary search: the number of boundaries <= l (boundaries increase).
+    let (mut lo, mut n) = (0usize, t.len());
+    while n > 0 {
+        let half = n / 2;
+        if t[lo + half] <= l {
+            lo += half + 1;
+            n -= half + 1;
+        } else {
+            n = half;
+        }
+    }
+    lo as u8
+}
+
+/// The inverse sRGB EOTF as a formula (what [`linear_to_srgb8`] computes
+/// through its boundary table).
+fn linear_to_srgb8_formula(l: f32) -> u8 {
     let l = if l.is_nan() { 0.0 } else { (l as f64).clamp(0.0, 1.0) };
     let c = if l <= 0.0031308 { l * 12.92 } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 };
     (c * 255.0).round() as u8
+}
+
+/// The tables behind [`srgb_to_linear`] and [`linear_to_srgb8`].
+struct Tables {
+    to_linear: [f32; 256],
+    /// `boundary[c - 1]`: the smallest non-negative `f32` whose code is `c`.
+    boundary: [f32; 255],
+}
+
+fn tables() -> &'static Tables {
+    static T: std::sync::OnceLock<Tables> = std::sync::OnceLock::new();
+    T.get_or_init(|| {
+        let mut to_linear = [0.0f32; 256];
+        for (c, v) in to_linear.iter_mut().enumerate() {
+            *v = srgb_to_linear_formula(c as u8);
+        }
+        let mut boundary = [0.0f32; 255];
+        // Non-negative f32s are ordered as their bit patterns.
+        let one = 1.0f32.to_bits();
+        for (i, b) in boundary.iter_mut().enumerate() {
+            let code = i as u8 + 1;
+            let (mut lo, mut hi) = (0u32, one); // code(lo) < code <= code(hi)
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if linear_to_srgb8_formula(f32::from_bits(mid)) >= code {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            *b = f32::from_bits(hi);
+        }
+        Tables { to_linear, boundary }
+    })
 }
 
 /// Encode linear RGB pixels (row-major) as 8-bit sRGB.
@@ -76,6 +141,43 @@ mod tests {
             let h = exr::prelude::f16::from_f32(l).to_f32();
             assert_eq!(linear_to_srgb8(h), code, "code {code}");
         }
+    }
+
+    #[test]
+    fn tables_match_the_formulas() {
+        for code in 0..=255u8 {
+            assert_eq!(srgb_to_linear(code).to_bits(), srgb_to_linear_formula(code).to_bits(), "code {code}");
+        }
+        // Around every code boundary, bit by bit.
+        for &b in tables().boundary.iter() {
+            let bits = b.to_bits();
+            for x in bits.saturating_sub(4096)..=bits + 4096 {
+                let l = f32::from_bits(x);
+                assert_eq!(linear_to_srgb8(l), linear_to_srgb8_formula(l), "l = {l:e} ({x:#x})");
+            }
+        }
+        // A sweep of [0, 1] and beyond, and the special values.
+        let one = 1.0f32.to_bits();
+        for x in (0..one + 100_000).step_by(997) {
+            let l = f32::from_bits(x);
+            assert_eq!(linear_to_srgb8(l), linear_to_srgb8_formula(l), "l = {l:e}");
+        }
+        for l in [f32::NAN, -0.0, -1.0, f32::NEG_INFINITY, f32::INFINITY, 2.0, f32::MIN_POSITIVE, 1e-45] {
+            assert_eq!(linear_to_srgb8(l), linear_to_srgb8_formula(l), "l = {l:e}");
+        }
+    }
+
+    /// Every f32 from 0 to 1 (about 1.07e9 values; run by hand:
+    /// `cargo test --release --lib picture -- --ignored`).
+    #[test]
+    #[ignore]
+    fn linear_to_srgb8_matches_the_formula_on_every_f32_in_0_1() {
+        use rayon::prelude::*;
+        let bad = (0..=1.0f32.to_bits())
+            .into_par_iter()
+            .filter(|&x| linear_to_srgb8(f32::from_bits(x)) != linear_to_srgb8_formula(f32::from_bits(x)))
+            .count();
+        assert_eq!(bad, 0);
     }
 
     #[test]

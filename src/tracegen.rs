@@ -478,17 +478,10 @@ pub fn make_trace_with(
     Ok(w.finish()?)
 }
 
-/// Derived frame `k` of `scene` under `spec`, built in memory exactly as
-/// [`make_trace`] writes it (colour rounded to half, as the trace stores
-/// it): its commands and the rendered samples of its two references. For
-/// benchmarks that must not depend on files.
-pub fn frame_in_memory(
-    scene: &Scene,
-    spec: &TraceSpec,
-    k: usize,
-) -> anyhow::Result<(postwarp_rtl::FrameCommands, Vec<postwarp_rtl::SampleImage>)> {
-    let ss = spec.supersample;
-    let scene = &*stressed_scene(scene, spec);
+/// The cameras of derived frame `k` under `spec`, as [`make_trace`] places
+/// them: its two references `(trace index, camera)` and its own camera.
+/// `scene` is already stressed ([`stressed_scene`]).
+fn frame_cameras(scene: &Scene, spec: &TraceSpec, k: usize) -> anyhow::Result<(Vec<(usize, Camera)>, Camera)> {
     let path = scene_path(scene, spec.path)?;
     let ref_k = spec.reference_intrinsics()?;
     let prev = spec.previous_reference(k);
@@ -503,6 +496,62 @@ pub fn frame_in_memory(
     let t = k as f64 / spec.derived_rate_hz;
     let derived =
         Camera { intrinsics: spec.display_intrinsics(), pose: spec.derived_pose(path.pose(spec.start_s + t)) };
+    Ok((cams, derived))
+}
+
+/// Write derived frame `k` of `scene` under `spec` as a trace of its own
+/// into `out` (which must not exist): the two references [`frame_in_memory`]
+/// renders (`refs`, in its order) and the derived frame with its ground
+/// truth, rendered as [`make_trace`] renders it. Returns the manifest path.
+/// `postwarp bench` times whole `simulate` processes on it.
+pub fn write_frame_trace(
+    scene: &Scene,
+    spec: &TraceSpec,
+    k: usize,
+    refs: &[postwarp_rtl::SampleImage],
+    out: &Path,
+) -> anyhow::Result<PathBuf> {
+    spec.validate()?;
+    let ss = spec.supersample;
+    let scene = &*stressed_scene(scene, spec);
+    let (cams, derived) = frame_cameras(scene, spec, k)?;
+    anyhow::ensure!(
+        refs.len() == cams.len(),
+        "derived frame {k} warps {} references; {} given",
+        cams.len(),
+        refs.len()
+    );
+    let mut w = TraceWriter::new(out, Display { width: spec.width, height: spec.height, supersample: ss })?;
+    w.note(format!("derived frame {k} of scene {} alone (postwarp bench); depth unit: metres", scene.name));
+    let mut list = Vec::new();
+    for ((j, cam), img) in cams.iter().zip(refs) {
+        list.push(w.add_reference(*j as f64 / spec.ref_rate_hz, *cam, img, SlopeSource::Exact)?);
+    }
+    let img = scene.render_layers(&derived, ss, spec.fragments).samples;
+    let truth = TruthImage {
+        width: spec.width,
+        height: spec.height,
+        colour: box_filter(img.width, img.height, ss, &img.colour),
+        known: bitvec::vec::BitVec::repeat(true, (spec.width * spec.height) as usize),
+        nondiffuse: None,
+        seen: None,
+    };
+    w.add_derived(k as f64 / spec.derived_rate_hz, derived, list, Some(&truth))?;
+    Ok(w.finish()?)
+}
+
+/// Derived frame `k` of `scene` under `spec`, built in memory exactly as
+/// [`make_trace`] writes it (colour rounded to half, as the trace stores
+/// it): its commands and the rendered samples of its two references. For
+/// benchmarks that must not depend on files.
+pub fn frame_in_memory(
+    scene: &Scene,
+    spec: &TraceSpec,
+    k: usize,
+) -> anyhow::Result<(postwarp_rtl::FrameCommands, Vec<postwarp_rtl::SampleImage>)> {
+    let ss = spec.supersample;
+    let scene = &*stressed_scene(scene, spec);
+    let (cams, derived) = frame_cameras(scene, spec, k)?;
     let cmd = postwarp_rtl::FrameCommands::new(k, derived, ss, &cams);
     let refs = cams
         .iter()

@@ -461,9 +461,9 @@ struct WarpPlan {
 
 impl WarpPlan {
     fn new(cfg: &EngineConfig, w: &WarpInput<'_>, (dw, dh): (u32, u32)) -> WarpPlan {
-        let img = &w.r.samples;
-        let lines = warp_lines(img.width, img.height, &w.tu.setup.epipole_reference);
-        let sched = Schedule::new(img, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size);
+        let size = (w.r.width, w.r.height);
+        let lines = warp_lines(size.0, size.1, &w.tu.setup.epipole_reference);
+        let sched = Schedule::new(size, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size);
         let params = HoleFillParams {
             far_distance: cfg.hole_far_distance,
             far_offset: cfg.hole_far_offset,
@@ -477,7 +477,7 @@ impl WarpPlan {
         let working_set = crate::working_set::predict(
             &w.tu.setup,
             (&w.tu.reference_camera(), &w.dst),
-            (img.width, img.height),
+            size,
             &w.r.depth,
             fill.lines(),
             cfg.kernel_limit,
@@ -534,14 +534,9 @@ impl<'s> Pipeline<'s> {
     ) -> Pipeline<'s> {
         let (r, tu, sched) = (w.r, w.tu, &plan.sched);
         let side = cfg.tile_size / cfg.supersample;
-        let mut cache = SourceCache::new(
-            cfg.source_cache_bytes,
-            r.samples.width,
-            r.samples.height,
-            cfg.supersample,
-            side,
-            |bx, by| r.packed.bytes_in_pixels(bx * side, by * side, (bx + 1) * side, (by + 1) * side),
-        );
+        let mut cache = SourceCache::new(cfg.source_cache_bytes, r.width, r.height, cfg.supersample, side, |bx, by| {
+            r.packed.bytes_in_pixels(bx * side, by * side, (bx + 1) * side, (by + 1) * side)
+        });
         cache.warp = w.number as u32;
         let (thr, rate) = (cfg.transform_throughput, cfg.rects_per_cycle);
         let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);

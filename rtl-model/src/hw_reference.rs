@@ -5,7 +5,8 @@
 //! renderer's output, or the warper's conversion on first use; not
 //! charged), keep its packed form (block sizes for the source cache), its
 //! coarse depth map (the tile manager's schedule) and host-speed copies of
-//! what the fetch unit expands (valid bits, per-sample records).
+//! what the fetch unit expands (valid bits, per-sample records, along the
+//! axes warps walk).
 //!
 //! Rules: the expansion is the unpacker's (`units::abuffer`), so every unit
 //! sees exactly what a hardware expander would produce; the host copies
@@ -19,6 +20,7 @@ use crate::sample_image::SampleImage;
 use crate::schedule::CoarseDepth;
 use crate::traversal::Major;
 use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReference};
+use std::sync::OnceLock;
 
 /// A reference frame as it sits in memory, with the host-side expansion
 /// the fetch unit streams (unpacking is deterministic; the model does it
@@ -27,20 +29,22 @@ use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReferenc
 pub struct HwReference {
     /// The reference in A-buffer format.
     pub packed: PackedReference,
-    /// Its samples as the fetch unit expands them.
-    pub samples: SampleImage,
-    /// 1/Z of every sample (0 without a surface).
-    pub inv_z: Vec<f64>,
+    /// Width (samples).
+    pub width: u32,
+    /// Height (samples).
+    pub height: u32,
     /// Coarse depth map for the schedule.
     pub depth: CoarseDepth,
     /// Packer counters of the conversion (reference frames).
     pub counters: AbufferCounters,
-    /// What the units read of each sample, packed in one record, twice
+    /// What the units read of each sample, packed in one record
     /// (host-speed copies; they change no value): row-major for the
     /// row-major sheets and column-major for the others, so that a sheet
-    /// streams its records in address order.
-    rows: Vec<RefSample>,
-    cols: Vec<RefSample>,
+    /// streams its records in address order. Each is made from the other
+    /// (or the packed form) the first time a warp walks that way, so a
+    /// reference only ever warped along one axis holds one copy.
+    rows: OnceLock<Vec<RefSample>>,
+    cols: OnceLock<Vec<RefSample>>,
     /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     pub(crate) grid: Grid,
     /// `valid`, one word per 8x8 tile of [`Grid`].
@@ -86,25 +90,74 @@ impl HwReference {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
     }
 
+    /// The records along `major` (made on first use, module docs).
+    #[inline(always)]
+    fn recs(&self, major: Major) -> &[RefSample] {
+        let (w, h) = (self.width as usize, self.height as usize);
+        match major {
+            Major::Row => self.rows.get_or_init(|| match self.cols.get() {
+                Some(c) => transpose(c, w, h),
+                None => records(&self.packed.unpack()),
+            }),
+            Major::Column => self.cols.get_or_init(|| match self.rows.get() {
+                Some(r) => transpose(r, h, w),
+                None => transpose(&records(&self.packed.unpack()), h, w),
+            }),
+        }
+    }
+
     /// The records of line `line` along `major` (row `line`, or column
     /// `line`), indexed by the position along it.
     #[inline(always)]
     pub(crate) fn line_recs(&self, major: Major, line: u32) -> &[RefSample] {
-        let (w, h) = (self.samples.width as usize, self.samples.height as usize);
+        let (w, h) = (self.width as usize, self.height as usize);
+        let recs = self.recs(major);
         match major {
-            Major::Row => &self.rows[line as usize * w..(line as usize + 1) * w],
-            Major::Column => &self.cols[line as usize * h..(line as usize + 1) * h],
+            Major::Row => &recs[line as usize * w..(line as usize + 1) * w],
+            Major::Column => &recs[line as usize * h..(line as usize + 1) * h],
         }
     }
 
     /// The record of sample `(x, y)`, from the copy laid out along `major`.
     #[inline(always)]
     pub(crate) fn rec(&self, major: Major, x: u32, y: u32) -> &RefSample {
+        let recs = self.recs(major);
         match major {
-            Major::Row => &self.rows[y as usize * self.samples.width as usize + x as usize],
-            Major::Column => &self.cols[x as usize * self.samples.height as usize + y as usize],
+            Major::Row => &recs[y as usize * self.width as usize + x as usize],
+            Major::Column => &recs[x as usize * self.height as usize + y as usize],
         }
     }
+
+    /// The samples as the fetch unit expands them (unpacked again: the
+    /// reference keeps only its packed form and records).
+    pub fn expanded(&self) -> SampleImage {
+        self.packed.unpack()
+    }
+}
+
+/// The records of `samples`, row-major (zero where not valid).
+fn records(samples: &SampleImage) -> Vec<RefSample> {
+    let mut rows = vec![RefSample::default(); samples.len()];
+    for i in samples.valid.iter_ones() {
+        rows[i] = RefSample {
+            inv_z: 1.0 / samples.z[i] as f64,
+            slopes: samples.inv_z_slopes[i],
+            colour: samples.colour[i],
+            z: samples.z[i],
+        };
+    }
+    rows
+}
+
+/// `m` (`rows` lines of `len` records) transposed: `len` lines of `rows`.
+fn transpose(m: &[RefSample], rows: usize, len: usize) -> Vec<RefSample> {
+    let mut t = vec![RefSample::default(); m.len()];
+    for (r, line) in m.chunks_exact(len).enumerate() {
+        for (a, rec) in line.iter().enumerate() {
+            t[a * rows + r] = *rec;
+        }
+    }
+    t
 }
 
 /// The A-buffer format's parameters of a configuration.
@@ -124,27 +177,24 @@ impl HwReference {
         let mut counters = AbufferCounters::default();
         let packed = abuffer::pack_reference(img, &abuffer_params(cfg), &mut counters);
         let samples = packed.unpack();
-        let inv_z: Vec<f64> =
-            (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
         let depth = CoarseDepth::new(&samples);
-        let (w, h) = (samples.width as usize, samples.height as usize);
+        let w = samples.width as usize;
         let grid = Grid::new(samples.width, samples.height);
-        let mut rows = vec![RefSample::default(); w * h];
-        let mut cols = vec![RefSample::default(); w * h];
         let mut valid_tiles = vec![0u64; grid.len() / 64];
         for i in samples.valid.iter_ones() {
-            let (x, y) = (i % w, i / w);
-            let gi = grid.index(x as u32, y as u32);
+            let gi = grid.index((i % w) as u32, (i / w) as u32);
             valid_tiles[gi >> 6] |= 1 << (gi & 63);
-            let rec = RefSample {
-                inv_z: inv_z[i],
-                slopes: samples.inv_z_slopes[i],
-                colour: samples.colour[i],
-                z: samples.z[i],
-            };
-            rows[i] = rec;
-            cols[x * h + y] = rec;
         }
-        HwReference { packed, samples, inv_z, depth, counters, rows, cols, grid, valid_tiles }
+        HwReference {
+            packed,
+            width: samples.width,
+            height: samples.height,
+            depth,
+            counters,
+            rows: OnceLock::new(),
+            cols: OnceLock::new(),
+            grid,
+            valid_tiles,
+        }
     }
 }

@@ -221,18 +221,17 @@ fn chunk_bounds(
 }
 
 impl Schedule {
-    /// The schedule of warping `img` (coarse depth `depth`) with `setup`
+    /// The schedule of warping a `size` (width, height) reference (coarse depth `depth`) with `setup`
     /// in the order `lines` into a `dst` (width, height) derived image of
     /// `tile`-sample tiles.
     pub fn new(
-        img: &SampleImage,
+        size: (u32, u32),
         depth: &CoarseDepth,
         setup: &WarpSetup,
         lines: Vec<Line>,
         dst: (u32, u32),
         tile: u32,
     ) -> Schedule {
-        let size = (img.width, img.height);
         let tiles = (dst.0.div_ceil(tile), dst.1.div_ceil(tile));
         let mut retire: Vec<Option<u32>> = vec![None; (tiles.0 * tiles.1) as usize];
         let mut first: Vec<Option<u32>> = vec![None; retire.len()];

@@ -90,7 +90,7 @@ proptest! {
     #[test]
     fn the_fetch_plan_streams_each_live_lines_neighbourhood_before_its_need(s in scene()) {
         let wp = build(&s);
-        let (sc, r) = (&wp.sched, &wp.r);
+        let sc = &wp.sched;
         let (w, h) = (s.w, s.h);
         for iv in &sc.fetch {
             let (lines, len) = extent(iv.major, w, h);
@@ -120,7 +120,7 @@ proptest! {
                 for a in (l.lo as i64 - 1).max(0)..=(l.hi as i64 + 1).min(len - 1) {
                     let (x, y) = at(l.major, c, a);
                     let i = (y * w + x) as usize;
-                    if r.samples.valid[i] {
+                    if wp.samples.valid[i] {
                         prop_assert!(first[i] <= need, "line {} reads ({}, {}) fetched by {} > need {}", k, x, y, first[i], need);
                     }
                 }
@@ -196,11 +196,11 @@ proptest! {
 /// that cover some sample.
 fn check_conservative(s: &Scene) -> Result<usize, TestCaseError> {
     let wp = build(s);
-    let (sc, r, tu) = (&wp.sched, &wp.r, &wp.tu);
+    let (sc, tu) = (&wp.sched, &wp.tu);
     let (w, h) = (s.w as i64, s.h as i64);
     let tw = s.w.div_ceil(s.tile) as i64;
-    let valid = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y) && r.samples.valid[(y * w + x) as usize];
-    let inv_z = |x: i64, y: i64| r.inv_z[(y * w + x) as usize];
+    let valid = |x: i64, y: i64| (0..w).contains(&x) && (0..h).contains(&y) && wp.samples.valid[(y * w + x) as usize];
+    let inv_z = |x: i64, y: i64| wp.inv_z[(y * w + x) as usize];
     let mut kernels = 0;
     for (k, l) in sc.lines.iter().enumerate() {
         for (x, y) in l.samples() {
@@ -217,7 +217,7 @@ fn check_conservative(s: &Scene) -> Result<usize, TestCaseError> {
                     pts.push(n.pos);
                 }
             }
-            let slopes = r.samples.inv_z_slopes[(y * w + x) as usize];
+            let slopes = wp.samples.inv_z_slopes[(y * w + x) as usize];
             for (sx, sy) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)] {
                 if let Some(c) = tu.edge_corner(x as f64, y as f64, inv_z(x, y), slopes, sx, sy) {
                     pts.push(c);

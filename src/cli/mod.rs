@@ -1,6 +1,7 @@
 //! The `postwarp` command line. One file per subcommand; each parses its
 //! flags with clap and calls into the library.
 
+mod bench;
 mod chart;
 mod compare;
 mod golden;
@@ -89,6 +90,13 @@ enum Command {
     /// over the pixels its non-diffuse mask marks as specular or
     /// transparent (docs/non-diffuse.md).
     Score(score::Args),
+    /// Time the standard frames: host seconds per frame (best and median of
+    /// --repeats) and samples per second of each engine (golden, forward
+    /// splat, hardware model) on the 640x480 2x2 frame, and of whole
+    /// `golden` and `simulate` processes on it and on the bundled real
+    /// pair, with their peak RSS per reference sample and the core count
+    /// (docs/performance.md).
+    Bench(bench::Args),
 }
 
 /// The command line's definition: every flag that takes a value accepts a
@@ -126,7 +134,11 @@ pub fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
-    match run(cli) {
+    let result = run(cli);
+    if let Some(file) = std::env::var_os(bench::PEAK_RSS_ENV) {
+        bench::write_peak_rss(std::path::Path::new(&file));
+    }
+    match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -149,5 +161,6 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Size(a) => size::run(a),
         Command::Chart(a) => chart::run(a),
         Command::Score(a) => score::run(a),
+        Command::Bench(a) => bench::run(a),
     }
 }

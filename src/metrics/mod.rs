@@ -330,8 +330,18 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
     let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
     let (w, h) = (input.width as usize, input.height as usize);
-    let ssim_luma = ssim::ssim_mean(w, h, &image_luma, &truth_luma, known);
-    let flip_mean = flip::flip_mean(input.width, input.height, &image8, &truth8, known);
+    // FLIP (the most expensive) beside the others; each is computed once,
+    // whatever the thread count, so the scores do not depend on it.
+    let (flip_mean, (ssim_luma, delta_e20_fraction)) = rayon::join(
+        || flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+        || {
+            rayon::join(
+                || ssim::ssim_mean(w, h, &image_luma, &truth_luma, known),
+                || delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
+            )
+        },
+    );
+    let psnr_luma_db = psnr::psnr_plane(&image_luma, &truth_luma, known);
     let psnr_rgb_db = psnr::psnr_rgb(&image8, &truth8, known);
     // The neighbourhood metrics on the common mask see the truth outside it,
     // as they see it on unknown pixels; a mask of every known pixel is the
@@ -341,21 +351,26 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     } else {
         let common8 = outside_as_truth(input.image, &truth8, &common);
         let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
-        (
-            psnr::psnr_rgb(&common8, &truth8, &common),
-            ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common),
-            flip::flip_mean(input.width, input.height, &common8, &truth8, &common),
-        )
+        let (flip_c, (psnr_c, ssim_c)) = rayon::join(
+            || flip::flip_mean(input.width, input.height, &common8, &truth8, &common),
+            || {
+                (
+                    psnr::psnr_rgb(&common8, &truth8, &common),
+                    ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common),
+                )
+            },
+        );
+        (psnr_c, ssim_c, flip_c)
     };
 
     Ok(Quality {
         psnr_rgb_db,
         psnr_rgb_covered_db: psnr::psnr_rgb(&image8, &truth8, &covered_known),
-        psnr_luma_db: psnr::psnr_plane(&image_luma, &truth_luma, known),
+        psnr_luma_db,
         ssim_luma,
         flip_mean,
         hole_fraction,
-        delta_e20_fraction: delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
+        delta_e20_fraction,
         psnr_rgb_common_db,
         ssim_luma_common,
         flip_mean_common,

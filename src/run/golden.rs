@@ -24,6 +24,7 @@ use crate::report::table;
 use crate::trace::Trace;
 use anyhow::Context;
 use postwarp_rtl::SampleImage;
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -68,22 +69,42 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
     let mut warper = Warper::new();
     let bar = crate::progress::bar(trace.derived.len() as u64, "golden");
     for (k, f) in trace.derived.iter().enumerate() {
-        for &r in &f.references {
-            if let std::collections::hash_map::Entry::Vacant(e) = prepared.entry(r) {
+        // The references not yet prepared, loaded and prepared in parallel
+        // (each alone: the same planes whatever the thread count).
+        let mut missing: Vec<usize> = f.references.iter().copied().filter(|r| !prepared.contains_key(r)).collect();
+        missing.sort_unstable();
+        missing.dedup();
+        let loaded: Vec<anyhow::Result<(usize, String, PreparedReference, f64)>> = missing
+            .par_iter()
+            .map(|&r| {
                 let loaded = trace.load_reference(r)?;
-                slopes[r] = Some(loaded.slopes.name().to_string());
                 let t = Instant::now();
-                e.insert(prepare_reference(&loaded.samples, ss, cfg));
-                prepare_ms += t.elapsed().as_secs_f64() * 1e3;
-            }
+                let p = prepare_reference(&loaded.samples, ss, cfg);
+                Ok((r, loaded.slopes.name().to_string(), p, t.elapsed().as_secs_f64() * 1e3))
+            })
+            .collect();
+        for l in loaded {
+            let (r, name, p, ms) = l?;
+            slopes[r] = Some(name);
+            prepared.insert(r, p);
+            prepare_ms += ms;
         }
         let cmd = trace.frame_commands(k);
         let refs: Vec<&PreparedReference> = f.references.iter().map(|r| &prepared[r]).collect();
         let t = Instant::now();
         let frame = warper.warp_frame(&cmd, &refs, cfg);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
-        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out))?;
-        write_frame_files(out, k, &frame, w, h, ss)?;
+        // References this frame was the last to use go before scoring and
+        // writing, which need memory of their own.
+        drop(refs);
+        prepared.retain(|r, _| last_use[r] > k);
+        // Scoring (with the heat-map) beside writing the frame's files.
+        let (quality, written) = rayon::join(
+            || super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out)),
+            || write_frame_files(out, k, &frame, w, h, ss),
+        );
+        let quality = quality?;
+        written?;
         frames.push(FrameEntry::new(
             k,
             Scores::of(quality.as_ref()),
@@ -92,7 +113,6 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
             w as u64 * h as u64,
             GoldenCounters::of(&frame.stats),
         ));
-        prepared.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -117,8 +137,13 @@ pub fn method_name(cfg: &GoldenConfig) -> &'static str {
 }
 
 fn write_frame_files(out: &Path, k: usize, f: &GoldenFrame, w: u32, h: u32, ss: u32) -> anyhow::Result<()> {
-    crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &f.pixels)?;
-    write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes(f))?;
-    write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &f.samples.real, &f.samples.hole)?;
-    Ok(())
+    let (exr, pngs) = rayon::join(
+        || write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes(f)),
+        || -> anyhow::Result<()> {
+            crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &f.pixels)?;
+            write_hole_mask(&out.join(format!("holes-{k:04}.png")), w, h, ss, &f.samples.real, &f.samples.hole)
+        },
+    );
+    exr?;
+    pngs
 }

@@ -43,6 +43,7 @@ use anyhow::Context;
 use bitvec::vec::BitVec;
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{Engine, FrameOutput, HwReference};
+use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
@@ -106,11 +107,25 @@ fn measure(
     let mut warper = Warper::new();
     let mut frames = Vec::new();
     for (k, f) in trace.derived.iter().enumerate() {
-        for &r in &f.references {
-            if let std::collections::hash_map::Entry::Vacant(e) = refs.entry(r) {
+        // The references not yet loaded, loaded and packed in parallel
+        // (each alone: the same planes whatever the thread count).
+        let mut missing: Vec<usize> = f.references.iter().copied().filter(|r| !refs.contains_key(r)).collect();
+        missing.sort_unstable();
+        missing.dedup();
+        let loaded: Vec<anyhow::Result<(usize, (HwReference, PreparedReference))>> = missing
+            .par_iter()
+            .map(|&r| {
                 let loaded = trace.load_reference(r)?;
-                e.insert((HwReference::new(&loaded.samples, &cfg), prepare_reference(&loaded.samples, ss, &gcfg)));
-            }
+                let both = rayon::join(
+                    || HwReference::new(&loaded.samples, &cfg),
+                    || prepare_reference(&loaded.samples, ss, &gcfg),
+                );
+                Ok((r, both))
+            })
+            .collect();
+        for l in loaded {
+            let (r, both) = l?;
+            refs.insert(r, both);
         }
         let cmd = trace.frame_commands(k);
         let hw_refs: Vec<&HwReference> = f.references.iter().map(|r| &refs[r].0).collect();
@@ -124,9 +139,8 @@ fn measure(
         let differing = differing_samples(&hw, &golden.samples);
         let all = BitVec::repeat(true, hw.pixels.len());
         let psnr = psnr_rgb(&pixels8(&hw.pixels), &pixels8(&golden.pixels), &all);
-        let vs_truth = super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, out)?;
-        if let Some(out) = out {
-            write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels)?;
+        // Scoring beside writing the frame's files.
+        let write = |out: &Path| -> anyhow::Result<()> {
             let d = &hw.frame;
             let planes = Planes {
                 width: d.width,
@@ -137,7 +151,20 @@ fn measure(
                 source: &d.source,
                 real: &d.real,
             };
-            write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes)?;
+            let (png, exr) = rayon::join(
+                || write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels),
+                || write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes),
+            );
+            png?;
+            exr
+        };
+        let (vs_truth, written) = rayon::join(
+            || super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, out),
+            || out.map(write).transpose(),
+        );
+        let vs_truth = vs_truth?;
+        written?;
+        if let Some(out) = out {
             if let (Some(resolution), Some(t)) = (timeline, &hw.timeline) {
                 let manifest = trace.manifest.display().to_string();
                 let meta = TimelineMeta { trace: &manifest, frame: k, clock_hz: cfg.clock_hz, resolution };

@@ -176,8 +176,13 @@ fn write_channels(path: &Path, size: (u32, u32), list: Vec<AnyChannel<FlatSample
         channels,
     );
     let image = Image::from_layer(layer);
+    // Blocks are compressed in parallel and written in increasing order
+    // (`LineOrder::Increasing`): the same bytes whatever the thread count.
+    // Reading stays sequential: a panic of the decoder on a malformed file
+    // inside exr's own thread pool would abort the process instead of
+    // becoming that file's error.
     write_atomically(path, |tmp| {
-        image.write().non_parallel().to_file(tmp).map_err(|e| TraceError::file(path, format!("cannot write EXR: {e}")))
+        image.write().to_file(tmp).map_err(|e| TraceError::file(path, format!("cannot write EXR: {e}")))
     })
 }
 

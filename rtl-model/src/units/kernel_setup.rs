@@ -247,7 +247,7 @@ impl<'s> KernelSetupStage<'s> {
         lanes: u32,
         activity: Activity,
     ) -> Self {
-        buffer.begin_warp(reference.samples.width, reference.samples.height);
+        buffer.begin_warp(reference.width, reference.height);
         KernelSetupStage {
             lines,
             need,
@@ -350,8 +350,8 @@ impl<'s> KernelSetupStage<'s> {
         self.emits.reserve(l.len() as usize);
         let epipole = &tu.setup.epipole_reference;
         let len = match major {
-            Major::Row => r.samples.width as i64,
-            Major::Column => r.samples.height as i64,
+            Major::Row => r.width as i64,
+            Major::Column => r.height as i64,
         };
         let wcur = buf.warp_row(major, c).expect("the current line is on the image");
         let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];

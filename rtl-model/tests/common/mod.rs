@@ -83,6 +83,10 @@ pub struct Warp {
     pub dst: Camera,
     /// The reference as the warper holds it.
     pub r: HwReference,
+    /// Its samples as the fetch unit expands them.
+    pub samples: SampleImage,
+    /// 1/Z of every expanded sample (0 without a surface).
+    pub inv_z: Vec<f64>,
     /// The warp's transform unit.
     pub tu: TransformUnit,
     /// The tile manager's schedule of the warp.
@@ -97,11 +101,14 @@ impl Warp {
         let src = camera(w, h, DVec3::ZERO, 0.0);
         let dst = camera(w, h, dst_pos, yaw);
         let r = HwReference::new(img, &cfg);
+        let samples = r.expanded();
+        let inv_z =
+            (0..samples.len()).map(|i| if samples.valid[i] { 1.0 / samples.z[i] as f64 } else { 0.0 }).collect();
         let setup = WarpSetup::new(&src, &dst);
         let tu = TransformUnit::new(setup, src, dst, vec![src.pose.position], 0, cfg.better_margin);
         let lines = warp_lines(w, h, &setup.epipole_reference);
-        let sched = Schedule::new(&r.samples, &r.depth, &setup, lines, (w, h), cfg.tile_size);
-        Warp { cfg, src, dst, r, tu, sched }
+        let sched = Schedule::new((r.width, r.height), &r.depth, &setup, lines, (w, h), cfg.tile_size);
+        Warp { cfg, src, dst, r, samples, inv_z, tu, sched }
     }
 
     /// The source cache of the warp, as the engine builds it (every block
@@ -115,7 +122,7 @@ impl Warp {
 /// sizes as packed (the engine's `Pipeline::new`).
 pub fn source_cache(r: &HwReference, cfg: &EngineConfig, capacity: u64) -> SourceCache {
     let side = cfg.tile_size / cfg.supersample;
-    SourceCache::new(capacity, r.samples.width, r.samples.height, cfg.supersample, side, |bx, by| {
+    SourceCache::new(capacity, r.width, r.height, cfg.supersample, side, |bx, by| {
         r.packed.bytes_in_pixels(bx * side, by * side, (bx + 1) * side, (by + 1) * side)
     })
 }
@@ -135,7 +142,7 @@ pub fn streamed(r: &HwReference, cfg: &EngineConfig, plan: &[FetchInterval]) -> 
         cache.arrived(b, Cycle(0));
     }
     let total: u32 = plan.iter().map(|iv| iv.len()).sum();
-    let len = grid_len(r.samples.width, r.samples.height);
+    let len = grid_len(r.width, r.height);
     let mut transform = TransformStage::new(total + 1, 0, len, Activity::starting(Cycle(0), false));
     let mut fetch = FetchStage::new(plan, r, cache, total + 1, Activity::starting(Cycle(0), false));
     let mut port = MemPort::default();

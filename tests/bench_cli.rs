@@ -1,0 +1,63 @@
+//! `postwarp bench --quick`: the printed table has every row, each with
+//! positive times and rates, and peak RSS per reference sample for the
+//! process rows.
+
+use std::process::Command;
+
+#[test]
+fn bench_quick_prints_every_row_with_positive_numbers() {
+    let out = Command::new(env!("CARGO_BIN_EXE_postwarp"))
+        .args(["bench", "--quick", "--repeats", "1"])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("run postwarp bench");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "bench failed: {}\n{text}", String::from_utf8_lossy(&out.stderr));
+    let head = text.lines().next().expect("a first line");
+    let cores: usize = head
+        .strip_prefix("postwarp bench: ")
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("first line names the core count: {head}"));
+    assert!(cores >= 1);
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .filter(|l| l.starts_with("| engine") || l.starts_with("| process"))
+        .map(|l| l.trim_matches('|').split('|').map(str::trim).collect())
+        .collect();
+    let names: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(
+        names,
+        [
+            "engine golden",
+            "engine forward-splat",
+            "engine hardware-model",
+            "process golden",
+            "process golden",
+            "process simulate"
+        ],
+        "{text}"
+    );
+    assert!(rows[3][1].starts_with("traces/motorcycle 741x500"), "{text}");
+    for r in &rows {
+        assert_eq!(r.len(), 8, "eight columns: {r:?}");
+        let threads: usize = r[2].parse().expect("threads");
+        assert_eq!(threads, if r[0].starts_with("engine") { 1 } else { cores }, "{r:?}");
+        let best: f64 = r[3].parse().expect("best s");
+        let median: f64 = r[4].parse().expect("median s");
+        let rate: f64 = r[5].parse().expect("samples per second");
+        assert!(best > 0.0 && median >= best && rate > 0.0, "{r:?}");
+        if r[0].starts_with("process") {
+            let mb: f64 = r[6].parse().expect("peak RSS");
+            let per: f64 = r[7].parse().expect("peak bytes per reference sample");
+            assert!(mb > 0.0 && per > 0.0, "{r:?}");
+        }
+    }
+    let ratio = text
+        .lines()
+        .find_map(|l| l.strip_prefix("golden/forward-splat throughput ratio: "))
+        .and_then(|s| s.split(' ').next())
+        .and_then(|n| n.parse::<f64>().ok())
+        .expect("the ratio line");
+    assert!(ratio > 0.0, "{text}");
+}
