@@ -21,6 +21,7 @@
 //!    `nondiffuse` mask (a pixel is in it when any of its samples is). A
 //!    diffuse scene gives a v1 trace, byte for byte as before v2.
 
+pub mod seen;
 use crate::path::CameraPath;
 use crate::path::predict::predict_pose;
 use crate::path::spline::SplinePath;
@@ -438,6 +439,8 @@ pub fn make_trace_with(
     }
 
     let steps = (n_refs + if spec.truth { spec.frames } else { 0 }) as u64;
+    // The references as warped, for the truth's visibility (`seen`).
+    let mut rendered: Vec<(Camera, postwarp_rtl::SampleImage)> = Vec::with_capacity(n_refs);
     let bar = if progress { crate::progress::bar(steps, "rendering") } else { indicatif::ProgressBar::hidden() };
     for j in 0..n_refs {
         let t = j as f64 / spec.ref_rate_hz;
@@ -449,6 +452,9 @@ pub fn make_trace_with(
         let layers = crate::trace::layers::Layers { fragments: r.fragments, raytree: r.raytree };
         w.add_reference_with_layers(t, cam, &img, SlopeSource::Exact, &layers)
             .with_context(|| format!("writing reference {j}"))?;
+        if spec.truth {
+            rendered.push((cam, img));
+        }
         bar.inc(1);
     }
     for k in 0..spec.frames {
@@ -461,13 +467,15 @@ pub fn make_trace_with(
             bar.inc(1);
             let nondiffuse = (scene.has_transparency() || scene.has_specular())
                 .then(|| pixel_mask(&r.nondiffuse, spec.width, spec.height, ss));
+            let refs: Vec<(Camera, &postwarp_rtl::SampleImage)> =
+                [prev, prev + 1].iter().map(|&j| (rendered[j].0, &rendered[j].1)).collect();
             Some(TruthImage {
                 width: spec.width,
                 height: spec.height,
                 colour: box_filter(img.width, img.height, ss, &img.colour),
                 known: bitvec::vec::BitVec::repeat(true, (spec.width * spec.height) as usize),
                 nondiffuse,
-                seen: None,
+                seen: Some(seen::seen_pixels(&cam, &img, ss, &refs)),
             })
         } else {
             None
@@ -528,13 +536,14 @@ pub fn write_frame_trace(
         list.push(w.add_reference(*j as f64 / spec.ref_rate_hz, *cam, img, SlopeSource::Exact)?);
     }
     let img = scene.render_layers(&derived, ss, spec.fragments).samples;
+    let seen_by: Vec<(Camera, &postwarp_rtl::SampleImage)> = cams.iter().map(|(_, c)| *c).zip(refs).collect();
     let truth = TruthImage {
         width: spec.width,
         height: spec.height,
         colour: box_filter(img.width, img.height, ss, &img.colour),
         known: bitvec::vec::BitVec::repeat(true, (spec.width * spec.height) as usize),
         nondiffuse: None,
-        seen: None,
+        seen: Some(seen::seen_pixels(&derived, &img, ss, &seen_by)),
     };
     w.add_derived(k as f64 / spec.derived_rate_hz, derived, list, Some(&truth))?;
     Ok(w.finish()?)

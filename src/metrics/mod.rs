@@ -353,12 +353,7 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
         let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
         let (flip_c, (psnr_c, ssim_c)) = rayon::join(
             || flip::flip_mean(input.width, input.height, &common8, &truth8, &common),
-            || {
-                (
-                    psnr::psnr_rgb(&common8, &truth8, &common),
-                    ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common),
-                )
-            },
+            || (psnr::psnr_rgb(&common8, &truth8, &common), ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common)),
         );
         (psnr_c, ssim_c, flip_c)
     };
