@@ -6,7 +6,11 @@
 //! 2x2 samples, derived frame 3 from references 0 and 1 (2140x1496 samples
 //! each), built in memory; the references are packed to A-buffer
 //! format once (`HwReference::new`), outside the measurement. The
-//! configuration is the `mark1998` preset.
+//! configuration is the `mark1998` preset, and beside it `one-lane`: the
+//! preset as it was before issue 14's sizing (one sample, rectangle and
+//! hole-fill sample per clock, 576 KiB of destination cache, no tile
+//! prefetch, no miss queue), so that host speed can be compared on the
+//! same simulated machine across versions.
 //!
 //! Run: `cargo bench --bench simulate`. Criterion prints the time per
 //! frame; the cycles per frame are printed once before measuring, so
@@ -19,25 +23,39 @@ use postwarp_rtl::engine::{Engine, HwReference};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+/// `mark1998` before issue 14's sizing (module doc).
+fn one_lane() -> EngineConfig {
+    EngineConfig {
+        transform_throughput: 1,
+        rects_per_cycle: 1,
+        hole_fill_per_cycle: 1,
+        dest_cache_bytes: 576 * 1024,
+        tile_prefetch_distance: 0,
+        composite_miss_queue: 0,
+        ..EngineConfig::default()
+    }
+}
+
 fn bench(c: &mut Criterion) {
     let BenchFrame { cmd, refs: imgs, .. } = BenchFrame::new(standard_spec()).expect("bench frame");
-    let cfg = EngineConfig::default();
-    let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, &cfg)).collect();
-    let refs: Vec<&HwReference> = refs.iter().collect();
-    let mut engine = Engine::new(cfg).expect("mark1998 validates");
-    let t = Instant::now();
-    let out = engine.run_frame(&cmd, &refs);
-    let s = t.elapsed().as_secs_f64();
-    let cycles = out.stats.cycles;
-    println!(
-        "simulate room 640x480 ss2 frame 3: {cycles} cycles per frame; first run {s:.3} s = {:.2} M cycles per host second",
-        cycles as f64 / s / 1e6
-    );
     let mut g = c.benchmark_group("simulate_room_640x480_ss2_frame3");
     g.sample_size(10);
     g.sampling_mode(SamplingMode::Flat);
     g.measurement_time(Duration::from_secs(20));
-    g.bench_function("mark1998", |b| b.iter(|| black_box(engine.run_frame(&cmd, &refs).stats.cycles)));
+    for (name, cfg) in [("mark1998", EngineConfig::default()), ("one-lane", one_lane())] {
+        let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, &cfg)).collect();
+        let refs: Vec<&HwReference> = refs.iter().collect();
+        let mut engine = Engine::new(cfg).expect("the configuration validates");
+        let t = Instant::now();
+        let out = engine.run_frame(&cmd, &refs);
+        let s = t.elapsed().as_secs_f64();
+        let cycles = out.stats.cycles;
+        println!(
+            "simulate room 640x480 ss2 frame 3, {name}: {cycles} cycles per frame; first run {s:.3} s = {:.2} M cycles per host second",
+            cycles as f64 / s / 1e6
+        );
+        g.bench_function(name, |b| b.iter(|| black_box(engine.run_frame(&cmd, &refs).stats.cycles)));
+    }
     g.finish();
 }
 

@@ -473,7 +473,12 @@ impl WarpPlan {
         let fill = HoleFillUnit::new(dw, dh, &epipole, params);
         let taps = HoleFillUnit::tap_offsets(&params);
         let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &taps);
-        let fill_first = fill_first_lines(fill.lines(), (dw, dh), cfg.tile_size, &taps);
+        // The prefetch's list for the hole fill (none without a prefetch).
+        let fill_first = if cfg.tile_prefetch_distance > 0 {
+            fill_first_lines(fill.lines(), (dw, dh), cfg.tile_size, &taps)
+        } else {
+            Vec::new()
+        };
         let working_set = crate::working_set::predict(
             &w.tu.setup,
             (&w.tu.reference_camera(), &w.dst),

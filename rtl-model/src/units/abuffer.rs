@@ -593,6 +593,7 @@ pub fn reference_depth(inv_z: f32) -> f32 {
 /// Derived sample `i` of `frame` as the packer's input: `None` if it holds
 /// neither a surface nor fill. The one conversion the A-buffer round trip
 /// and the fallback pass's byte count share.
+#[inline]
 pub fn sample_in(frame: &DestFrame, i: usize) -> Option<SampleIn> {
     (frame.real[i] || frame.hole[i]).then(|| SampleIn {
         colour: frame.colour[i],
