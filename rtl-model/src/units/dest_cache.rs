@@ -198,11 +198,6 @@ impl DestCache {
         true
     }
 
-    /// A free slot exists.
-    pub fn has_room(&self) -> bool {
-        self.tags.has_room()
-    }
-
     /// Rule 1: the load of a tile's first use in this warp, on `demand` (the
     /// demand queue) or prefetched (the prefetch queue).
     fn start_fresh_load(&mut self, now: Cycle, t: u32, f: &mut DestFrame, port: &mut MemPort, demand: bool) {

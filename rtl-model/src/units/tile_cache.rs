@@ -261,12 +261,6 @@ impl TileCache {
         true
     }
 
-    /// A free slot exists.
-    #[inline]
-    pub fn has_room(&self) -> bool {
-        self.held < self.capacity
-    }
-
     /// A load of tile `t` has arrived.
     #[inline]
     pub fn loaded(&mut self, t: u32, now: Cycle) {
