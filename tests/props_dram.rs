@@ -162,7 +162,7 @@ fn drive(cfg: DramConfig, reqs: &[Req], d: Driver) -> Result<Run, TestCaseError>
             let r = reqs[next];
             let access = if r.write { Access::Write } else { Access::Read };
             prop_assert_eq!(dram.will_accept(Cycle(now)), m.will_accept(now), "will_accept at {}", now);
-            let res = dram.request(Cycle(now), Client::ALL[r.client], access, r.bytes, next as u64);
+            let res = dram.request(Cycle(now), Client::ALL[r.client], access, 0, r.bytes, next as u64);
             if m.will_accept(now) {
                 prop_assert!(res.is_ok(), "refused at {} although the model accepts", now);
                 accepted.push(m.accept(now, next as u64, r.bytes));

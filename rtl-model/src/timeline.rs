@@ -33,6 +33,8 @@ pub struct RequestSpan {
     pub client: Client,
     /// Read or write.
     pub access: Access,
+    /// First byte's DRAM address (bytes).
+    pub addr: u64,
     /// Bytes moved (rounded to bursts).
     pub bytes: u64,
     /// Cycle of acceptance.

@@ -163,7 +163,7 @@ fn the_dirty_tile_is_repacked_pixel_by_pixel_and_the_clean_one_dropped() {
     assert_eq!(s.counters().visits, 16);
     // Eight writes already queued: the dirty tile's release waits.
     for _ in 0..8 {
-        b.port.write(Req { client: Client::TileWriteBack, access: Access::Write, bytes: 1, tag: Tag::Write });
+        b.port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes: 1, tag: Tag::Write });
     }
     let writes = b.port.writes_waiting();
     b.tick(&mut s, Cycle(4));

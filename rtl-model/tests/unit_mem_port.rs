@@ -19,7 +19,7 @@ fn dram(latency: u64, max_outstanding: usize) -> Dram<Tag> {
 
 fn req(client: Client, bytes: u64, tag: Tag) -> Req {
     let access = if client == Client::TileWriteBack { Access::Write } else { Access::Read };
-    Req { client, access, bytes, tag }
+    Req { client, access, addr: 0, bytes, tag }
 }
 
 /// Run cycles `from..to`: tick the DRAM, collect completions as (cycle,

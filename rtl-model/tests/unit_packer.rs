@@ -132,7 +132,7 @@ fn a_tile_leaves_in_the_cycle_the_fill_has_made_its_visits_and_occupies_the_pack
 fn eight_queued_writes_stall_a_release_on_fifo_full_until_one_issues() {
     let mut b = Bench::new(0, true);
     for _ in 0..WRITE_QUEUE_LIMIT {
-        b.port.write(Req { client: Client::TileWriteBack, access: Access::Write, bytes: 64, tag: Tag::Write });
+        b.port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes: 64, tag: Tag::Write });
     }
     let mut dram: Dram<Tag> =
         Dram::new(DramConfig { peak_bytes_per_cycle: 64, latency_cycles: 0, burst_bytes: 32, max_outstanding: 8 });

@@ -113,6 +113,8 @@ pub struct Request<T = u64> {
     pub client: Client,
     /// Read or write.
     pub access: Access,
+    /// First byte's DRAM address (bytes; `docs/memory-layout.md`).
+    pub addr: u64,
     /// Bytes asked for (before rounding to bursts).
     pub bytes: u64,
     /// The client's identifier, returned on completion.
@@ -319,6 +321,7 @@ impl<T: Copy> Dram<T> {
         now: Cycle,
         client: Client,
         access: Access,
+        addr: u64,
         bytes: u64,
         tag: T,
     ) -> Result<(), Request<T>> {
@@ -328,7 +331,7 @@ impl<T: Copy> Dram<T> {
                 self.counters.refused_cycles += 1;
                 self.last_refused = Some(now);
             }
-            return Err(Request { client, access, bytes, tag });
+            return Err(Request { client, access, addr, bytes, tag });
         }
         let peak = self.cfg.peak_bytes_per_cycle;
         let rounded = self.cfg.rounded(bytes);
@@ -354,7 +357,7 @@ impl<T: Copy> Dram<T> {
         }
         c.latency.record(done - now);
         if let Some(spans) = &mut self.spans {
-            spans.push(RequestSpan { client, access, bytes: rounded, accepted: now, done });
+            spans.push(RequestSpan { client, access, addr, bytes: rounded, accepted: now, done });
         }
         Ok(())
     }
@@ -451,7 +454,7 @@ mod tests {
             let mut d = Dram::new(cfg);
             let accept = Cycle(5);
             tick_to(&mut d, Cycle(0), accept);
-            d.request(accept, Client::ReferenceFetch, Access::Read, bytes, 77).unwrap();
+            d.request(accept, Client::ReferenceFetch, Access::Read, 0, bytes, 77).unwrap();
             let transfer = cfg.rounded(bytes).div_ceil(peak);
             let done = accept + latency + transfer;
             tick_to(&mut d, accept.next(), done - 1);
@@ -467,11 +470,11 @@ mod tests {
     fn a_request_is_rounded_up_to_whole_bursts() {
         let mut d = Dram::new(CFG);
         d.tick(Cycle(0));
-        d.request(Cycle(0), Client::TileFill, Access::Read, 33, 0).unwrap();
+        d.request(Cycle(0), Client::TileFill, Access::Read, 0, 33, 0).unwrap();
         d.tick(Cycle(1));
-        d.request(Cycle(1), Client::TileWriteBack, Access::Write, 1, 1).unwrap();
+        d.request(Cycle(1), Client::TileWriteBack, Access::Write, 0, 1, 1).unwrap();
         d.tick(Cycle(2));
-        d.request(Cycle(2), Client::Output, Access::Write, 64, 2).unwrap();
+        d.request(Cycle(2), Client::Output, Access::Write, 0, 64, 2).unwrap();
         let c = d.counters();
         assert_eq!(c.client_bytes_read[Client::TileFill.index()], 64);
         assert_eq!(c.client_bytes_written[Client::TileWriteBack.index()], 32);
@@ -501,7 +504,7 @@ mod tests {
             if issued < n {
                 let client = Client::ALL[(issued % 4) as usize];
                 let access = if issued % 3 == 0 { Access::Write } else { Access::Read };
-                if d.request(now, client, access, bytes, issued).is_ok() {
+                if d.request(now, client, access, 0, bytes, issued).is_ok() {
                     issued += 1;
                 }
             }
@@ -546,7 +549,7 @@ mod tests {
             d.tick(Cycle(t));
             while d.completed(Cycle(t)).is_some() {}
             let before = d.bus_free_slot;
-            if d.request(Cycle(t), Client::ALL[(t % 4) as usize], Access::Read, 1 + t % 20, t).is_ok() {
+            if d.request(Cycle(t), Client::ALL[(t % 4) as usize], Access::Read, 0, 1 + t % 20, t).is_ok() {
                 let end = d.bus_free_slot;
                 let start = end - cfg.rounded(1 + t % 20);
                 assert!(start >= before.max(prev_free));
@@ -584,16 +587,19 @@ mod tests {
         let mut d = Dram::new(cfg);
         d.tick(Cycle(0));
         assert!(d.will_accept(Cycle(0)));
-        d.request(Cycle(0), Client::Output, Access::Write, 32, 0).unwrap();
+        d.request(Cycle(0), Client::Output, Access::Write, 0, 32, 0).unwrap();
         assert!(!d.will_accept(Cycle(0)));
-        let refused = d.request(Cycle(0), Client::TileFill, Access::Read, 32, 1);
-        assert_eq!(refused, Err(Request { client: Client::TileFill, access: Access::Read, bytes: 32, tag: 1 }));
+        let refused = d.request(Cycle(0), Client::TileFill, Access::Read, 0, 32, 1);
+        assert_eq!(
+            refused,
+            Err(Request { client: Client::TileFill, access: Access::Read, addr: 0, bytes: 32, tag: 1 })
+        );
         d.tick(Cycle(1));
-        d.request(Cycle(1), Client::TileFill, Access::Read, 32, 1).unwrap();
+        d.request(Cycle(1), Client::TileFill, Access::Read, 0, 32, 1).unwrap();
         d.tick(Cycle(2));
         assert!(!d.will_accept(Cycle(2)), "two outstanding");
-        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 32, 2).is_err());
-        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 32, 2).is_err());
+        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 0, 32, 2).is_err());
+        assert!(d.request(Cycle(2), Client::TileFill, Access::Read, 0, 32, 2).is_err());
         assert_eq!(d.counters().refused_cycles, 2);
         // First completes at 0 + 10 + 2 = 12, second at max(11*16, 12*16 + 0)... = 14.
         tick_to(&mut d, Cycle(3), Cycle(12));
@@ -626,6 +632,6 @@ mod tests {
     fn a_zero_byte_request_panics() {
         let mut d = Dram::new(CFG);
         d.tick(Cycle(0));
-        let _ = d.request(Cycle(0), Client::Output, Access::Read, 0, 0);
+        let _ = d.request(Cycle(0), Client::Output, Access::Read, 0, 0, 0);
     }
 }

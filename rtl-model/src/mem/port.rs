@@ -61,6 +61,8 @@ pub struct Req {
     pub client: Client,
     /// Read or write.
     pub access: Access,
+    /// First byte's DRAM address (bytes; `docs/memory-layout.md`).
+    pub addr: u64,
     /// Bytes (before burst rounding; 0 is dropped).
     pub bytes: u64,
     /// Returned on completion.
@@ -138,7 +140,7 @@ impl MemPort {
                 self.queued -= 1;
             }
             if let Some(r) = q.front() {
-                return match dram.request(now, r.client, r.access, r.bytes, r.tag) {
+                return match dram.request(now, r.client, r.access, r.addr, r.bytes, r.tag) {
                     Ok(()) => {
                         q.pop_front();
                         self.queued -= 1;
@@ -158,7 +160,7 @@ mod tests {
     use crate::mem::DramConfig;
 
     fn req(client: Client, tag: Tag) -> Req {
-        Req { client, access: Access::Read, bytes: 32, tag }
+        Req { client, access: Access::Read, addr: 0, bytes: 32, tag }
     }
 
     #[test]

@@ -164,7 +164,7 @@ impl DestCache {
         let (lookup, spilled) = self.tags.access(t, now, counted, pinned);
         if spilled.is_some() {
             let bytes = self.raw_tile_bytes();
-            port.write(Req { client: Client::TileWriteBack, access: Access::Write, bytes, tag: Tag::Write });
+            port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes, tag: Tag::Write });
         }
         match lookup {
             Lookup::Hit => true,
@@ -179,6 +179,7 @@ impl DestCache {
                 port.demand(Req {
                     client: Client::TileFill,
                     access: Access::Read,
+                    addr: 0,
                     bytes,
                     tag: Tag::Tile { tile: t, fresh: false },
                 });
@@ -208,8 +209,13 @@ impl DestCache {
             return;
         }
         let bytes = self.packed_bytes[t as usize];
-        let req =
-            Req { client: Client::TileFill, access: Access::Read, bytes, tag: Tag::Tile { tile: t, fresh: true } };
+        let req = Req {
+            client: Client::TileFill,
+            access: Access::Read,
+            addr: 0,
+            bytes,
+            tag: Tag::Tile { tile: t, fresh: true },
+        };
         if demand {
             port.demand(req);
         } else {

@@ -22,6 +22,6 @@ use crate::mem::{Access, Client, MemPort, Req, Tag};
 /// in memory.
 pub fn queue_frame_read(port: &mut MemPort, packed_bytes: &[u64]) {
     for &bytes in packed_bytes {
-        port.output(Req { client: Client::Output, access: Access::Read, bytes, tag: Tag::Output });
+        port.output(Req { client: Client::Output, access: Access::Read, addr: 0, bytes, tag: Tag::Output });
     }
 }

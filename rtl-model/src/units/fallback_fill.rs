@@ -291,7 +291,13 @@ impl FallbackStage {
                     bytes += pixel_bytes(io.frame, px, py, &self.ab);
                 }
             }
-            io.port.write(Req { client: Client::TileWriteBack, access: Access::Write, bytes, tag: Tag::Write });
+            io.port.write(Req {
+                client: Client::TileWriteBack,
+                access: Access::Write,
+                addr: 0,
+                bytes,
+                tag: Tag::Write,
+            });
             io.cache.release(t, bytes);
             self.counters.tiles_written += 1;
             self.counters.pixels_changed += packed;

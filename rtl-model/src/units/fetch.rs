@@ -260,6 +260,7 @@ impl<'s> FetchStage<'s> {
             port.prefetch(Req {
                 client: Client::ReferenceFetch,
                 access: Access::Read,
+                addr: 0,
                 bytes: cache.bytes(b),
                 tag: Tag::Block { block: b, warp: cache.warp },
             });

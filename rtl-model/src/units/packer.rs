@@ -122,7 +122,7 @@ impl<'s> PackerStage<'s> {
         let side = ts / ss;
         let bytes =
             round_trip_dest_pixels(io.frame, px0, py0, px0 + side, py0 + side, &self.params, &mut self.counters);
-        io.port.write(Req { client: Client::TileWriteBack, access: Access::Write, bytes, tag: Tag::Write });
+        io.port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes, tag: Tag::Write });
         io.cache.release(t, bytes);
         self.evictions += 1;
         self.next += 1;
