@@ -200,13 +200,14 @@ fn trace_frame(name: &str, k: usize) -> (FrameCommands, Vec<SampleImage>) {
 /// Issue 14 item 2: the software-managed cache. With the whole frame on
 /// chip the schedule's prefetch loads every tile before its first use (no
 /// demand and no capacity miss), the fill follows the warp to every tile
-/// (none held to the warp's end where the sweeps correspond), and turning
-/// the prefetch off brings the demand misses and the compositor's and hole
+/// (none held to the warp's end, frame 0 with its epipoles inside the
+/// images and `slants` with its turned sweeps included), and turning the
+/// prefetch off brings the demand misses and the compositor's and hole
 /// fill's tile stalls back, with the same image.
 #[test]
 fn the_prefetch_loads_every_tile_before_its_use_and_distance_zero_brings_demand_misses_and_stalls_back() {
-    for name in ["room", "occluders", "hairball"] {
-        for k in [1, 3] {
+    for name in ["room", "occluders", "hairball", "slants"] {
+        for k in [0, 1, 3] {
             let (cmd, imgs) = trace_frame(name, k);
             let on = whole_frame_cache(&cmd);
             assert!(on.tile_prefetch_distance > 0 && on.composite_miss_queue > 0, "the preset prefetches");

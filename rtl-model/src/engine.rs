@@ -66,7 +66,7 @@ use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, MemPort, Tag};
 use crate::schedule::{Schedule, fill_first_lines, release_order};
 use crate::timeline::{Occupancy, Timeline};
-use crate::traversal::{sweep_of, warp_lines};
+use crate::traversal::{line_ring, warp_lines};
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
 use crate::units::dest_cache::DestCache;
@@ -457,6 +457,8 @@ struct WarpPlan {
     fill_first: Vec<Option<u32>>,
     /// The §5 model's working set for this warp.
     working_set: crate::working_set::WorkingSet,
+    /// The reference's size and epipole, for the ring bands of its lines.
+    ring_of: (u32, u32, crate::camera::Epipole),
 }
 
 impl WarpPlan {
@@ -488,28 +490,38 @@ impl WarpPlan {
             cfg.kernel_limit,
             cfg.tile_size,
         );
-        WarpPlan { sched, fill, releases, fill_first, working_set }
+        let ring_of = (size.0, size.1, w.tu.setup.epipole_reference);
+        WarpPlan { sched, fill, releases, fill_first, working_set, ring_of }
     }
 
     /// When kernel setup has set up the warp's last line: the tiles still
-    /// held (loading, resident or spilled) whose last write came in an
-    /// earlier sweep than that line's ([`FrameStats::tiles_held_to_warp_end`]).
+    /// held (loading, resident or spilled) whose last write came at least
+    /// [`HELD_RING_BANDS`] ring bands before the warp's last live line
+    /// ([`FrameStats::tiles_held_to_warp_end`]).
     fn held_to_end(&self, cache: &DestCache) -> u64 {
         let lines = &self.sched.lines;
-        let Some(last) = lines.last() else { return 0 };
-        let sweep = |l: u32| sweep_of(lines[l as usize].sheet).0;
-        let last_sweep = sweep_of(last.sheet).0;
+        let Some(last_live) = self.sched.live.iter().rposition(|&v| v) else { return 0 };
+        let (w, h, e) = self.ring_of;
+        let ring = |l: usize| line_ring(w, h, &e, &lines[l]);
+        let end = ring(last_live);
         self.sched
             .retire
             .iter()
             .enumerate()
             .filter(|&(t, r)| {
-                r.is_some_and(|l| sweep(l) != last_sweep)
+                r.is_some_and(|l| ring(l as usize).abs_diff(end) >= HELD_RING_BANDS)
                     && matches!(cache.state(t as u32), TileState::Loading | TileState::Resident | TileState::Spilled)
             })
             .count() as u64
     }
 }
+
+/// How far behind the warp's end (in ring bands of the warp's order,
+/// `traversal.rs` rule 6) a tile's last write must lie for a tile still
+/// held at the end to count as held to the warp's end: twice the deepest
+/// end front measured on the bundled and 640x480 traces (4 bands), so a
+/// tile counts only when the fill could not follow the warp to it.
+pub const HELD_RING_BANDS: u64 = 8;
 
 /// The units of one warp and the FIFOs between them.
 struct Pipeline<'s> {

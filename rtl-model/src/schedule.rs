@@ -4,9 +4,10 @@
 //!
 //! Job, per reference warp:
 //! 1. **Fetch plan.** The warp visits the reference in the reverse
-//!    eight-sheet order, sweep by sweep ([`crate::traversal::warp_lines`]). Kernel setup
-//!    needs each line's 3x3 neighbourhood, so for every sweep (two sheets
-//!    interleaved, [`crate::traversal`] rule 6) the fetch
+//!    eight-sheet order, ring band by ring band and in each band sweep by
+//!    sweep ([`crate::traversal::warp_lines`]). Kernel setup needs each
+//!    line's 3x3 neighbourhood, so for every run of lines of one sweep
+//!    (two sheets interleaved, [`crate::traversal`] rule 6) the fetch
 //!    unit streams, line by line, the line before the sheet's first line,
 //!    every line, and the line after its last, each widened by one sample
 //!    at both ends and merged with its neighbours' widened extents: the

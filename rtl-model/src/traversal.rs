@@ -50,30 +50,35 @@
 //!    (number 0), row by row if `|ey| ≥ |ex|`, else column by column, signs
 //!    from `(ex, ey)`. Coincident centres (`h = 0`): one sheet, row by row,
 //!    top to bottom, left to right.
-//! 6. Sweeps. Occlusion only happens between samples on one ray from the
-//!    epipole, and every such ray lies in one sheet, so only the order
-//!    within a sheet is fixed; sheets may be visited in any order, even
-//!    interleaved. The two sheets with the same axis and the same direction
-//!    across lines ([`sweep_of`]: vertical sheets below, vertical above,
-//!    horizontal right, horizontal left of the epipole: sweeps 0–3) are
-//!    interleaved by line index into one *sweep*, so each sweep crosses its
-//!    half-plane as one front of whole rows or columns; sweeps are emitted
-//!    in that order, and at one line index the lower-numbered sheet first.
-//!    With the epipole outside the image (most frames) the image is one or
-//!    two sweeps, and the warp's front and the hole fill's cross the
-//!    derived image together: a tile is filled and leaves the cache soon
-//!    after the warp has passed it (`docs/units.md`, "Destination cache").
+//! 6. Sweeps and ring bands. Occlusion only happens between samples on
+//!    one ray from the epipole, and every such ray lies in one sheet, so
+//!    only the order within a sheet is fixed; sheets may be visited in any
+//!    order, even interleaved. The two sheets with the same axis and the
+//!    same direction across lines ([`sweep_of`]: vertical sheets below,
+//!    vertical above, horizontal right, horizontal left of the epipole:
+//!    sweeps 0–3) are interleaved by line index into one *sweep*. A line's
+//!    *ring band* ([`line_ring`]) is its samples' L-infinity distance from
+//!    the epipole (`|dy|` on a row of a vertical sheet, `|dx|` on a column
+//!    of a horizontal one), less the image's nearest (the L-infinity
+//!    distance from the epipole to the image's sample box, 0 inside it),
+//!    in bands of [`RING_BAND`] lines, counted in the travel direction
+//!    (inward toward a front epipole, outward from a behind one). The
+//!    forward order is sorted by (ring band, sweep, line in travel order,
+//!    sheet): the four sweeps advance together as square rings around the
+//!    epipole, [`RING_BAND`] lines of one sweep at a time. With the
+//!    epipole far outside the image (most frames) the image is one sweep
+//!    and the bands change nothing; with the epipole inside, the warp's
+//!    front and the hole fill's cross the derived image together even
+//!    though the epipolar map turns the sweep borders, so a tile is filled
+//!    and leaves the cache soon after the warp has passed it
+//!    (`docs/units.md`, "Destination cache").
 //! 7. The reverse order ([`reverse_lines`]) is the forward order read
-//!    backwards: last line first, each line from its other end (the warp
-//!    traverses the reference image this way, so that its sweep crosses the
-//!    derived image in hole-fill order).
-//! 8. The warp's order ([`warp_lines`]) visits the sweeps in increasing
-//!    order, each read backwards as in rule 7: while the warp runs sweep
-//!    `k` of the reference, the hole fill can follow on sweep `k` of the
-//!    derived image (the two are the same half-plane of epipolar lines when
-//!    the epipoles are outside both images; with an epipole inside, the
-//!    sweeps of the two images do not correspond and the fill of a sweep
-//!    may wait for a later one).
+//!    backwards: last line first, each line from its other end.
+//! 8. The warp's order ([`warp_lines`], [`warp_key`]) visits the ring
+//!    bands in reverse (outward from a front epipole), and in each band
+//!    the sweeps in increasing order, each read backwards as in rule 7:
+//!    every sheet is exactly backwards, so the warp's sweep front crosses
+//!    the derived image in hole-fill order, band by band.
 //!
 //! Not modelled: the cycle cost of the per-line end search (counted as
 //! free), tiling of the image (the engine's tile schedule is separate),
@@ -321,16 +326,56 @@ fn each_line(width: u32, height: u32, epipole: &Epipole, mut f: impl FnMut(Line)
 /// descriptors: concatenating their [`Line::samples`] visits every sample
 /// exactly once, in the golden model's `traversal::order`.
 pub fn forward_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
-    let mut sweeps: [Vec<Line>; 4] = Default::default();
-    each_line(width, height, epipole, |l| sweeps[sweep_of(l.sheet).0 as usize].push(l));
-    let mut out = Vec::with_capacity(sweeps.iter().map(Vec::len).sum());
-    for mut lines in sweeps {
-        // Rule 6: the two sheets of a sweep interleave by line index (the
-        // sort is stable: at one line the lower-numbered sheet comes first).
-        lines.sort_by_key(|l| l.line as i64 * l.line_step as i64);
-        out.extend(lines);
-    }
+    let c = cut(epipole);
+    let mut out = Vec::new();
+    each_line(width, height, epipole, |l| out.push(l));
+    // Rules 6: rings first, then sweeps, then lines in travel order (the
+    // sort is stable: at one line the lower-numbered sheet comes first).
+    out.sort_by_key(|l| {
+        let li = if l.line_step > 0 { l.line as u64 } else { (lines_of(l.major, width, height) - 1 - l.line) as u64 };
+        (ring_travel(&c, width, height, l), sweep_of(l.sheet).0, li)
+    });
     out
+}
+
+/// Lines of the image along `major`.
+fn lines_of(major: Major, width: u32, height: u32) -> u32 {
+    match major {
+        Major::Row => height,
+        Major::Column => width,
+    }
+}
+
+/// Lines per ring band (rule 6): the best of 4, 8, 16 and 32 on the
+/// 640x480 room trace's frame 0 (epipole inside; `docs/units.md`, "Ring
+/// bands"). Fewer lines re-fetch more (each band of a sweep fetches its
+/// neighbour lines again), more lines let the fill lag further.
+pub const RING_BAND: u32 = 8;
+/// More ring bands than any image has.
+const RING_CAP: u64 = 1 << 20;
+
+/// The ring of `line`'s samples in the forward order's travel direction
+/// (rule 6): the band of their L-infinity distance from the epipole,
+/// counted from the image's nearest point, reversed toward a front epipole.
+/// The ring band of `line` in the forward order's travel direction
+/// (rule 6; 0 for a single-sheet image).
+pub fn line_ring(width: u32, height: u32, epipole: &Epipole, line: &Line) -> u64 {
+    ring_travel(&cut(epipole), width, height, line)
+}
+
+fn ring_travel(c: &Cut, width: u32, height: u32, l: &Line) -> u64 {
+    let Cut::Eight { ex, ey, ew_dir } = *c else { return 0 };
+    let d = match l.major {
+        Major::Row => (l.line as f64 - ey).abs(),
+        Major::Column => (l.line as f64 - ex).abs(),
+    };
+    ring_of(d, ex, ey, ew_dir, width, height)
+}
+
+fn ring_of(d: f64, ex: f64, ey: f64, ew_dir: i32, width: u32, height: u32) -> u64 {
+    let dmin = 0f64.max(-ex).max(ex - (width - 1) as f64).max(-ey).max(ey - (height - 1) as f64);
+    let r = (((d - dmin).max(0.0) / RING_BAND as f64).floor() as u64).min(RING_CAP - 1);
+    if ew_dir > 0 { RING_CAP - 1 - r } else { r }
 }
 
 /// The reverse of [`forward_lines`]: the lines in the opposite order, each
@@ -347,12 +392,10 @@ pub fn reverse_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
 /// The warp's order (rule 8): the sweeps in increasing order, each one
 /// read backwards (last line first, each line from its other end).
 pub fn warp_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
-    let back = reverse_lines(width, height, epipole);
-    let mut out = Vec::with_capacity(back.len());
-    for sweep in 0..4 {
-        out.extend(back.iter().filter(|l| sweep_of(l.sheet).0 == sweep));
-    }
-    out
+    let c = cut(epipole);
+    let mut back = reverse_lines(width, height, epipole);
+    back.sort_by_key(|l| (RING_CAP - 1 - ring_travel(&c, width, height, l), sweep_of(l.sheet).0));
+    back
 }
 
 /// The position of a sample in the warp's order ([`warp_lines`]), from
@@ -360,8 +403,9 @@ pub fn warp_lines(width: u32, height: u32, epipole: &Epipole) -> Vec<Line> {
 /// complemented, so that sorting by it gives the warp's order.
 pub fn warp_key(k: u64, keys: &OrderKey) -> u64 {
     let span = keys.sweep_span();
-    let (sweep, rest) = (k / span, k % span);
-    sweep * span + (span - 1 - rest)
+    let ring = 4 * span;
+    let (r, sweep, rest) = (k / ring, k % ring / span, k % span);
+    (RING_CAP - 1 - r) * ring + sweep * span + (span - 1 - rest)
 }
 
 /// The position of any sample in the forward order, in O(1): sorting
@@ -413,7 +457,17 @@ impl OrderKey {
         let ai = if p.step > 0 { a } else { len - 1 - a } as u64;
         let n = self.width as u64 * self.height as u64;
         let (sweep, half) = sweep_of(sheet);
-        sweep as u64 * 2 * n + li * 2 * len as u64 + half as u64 * len as u64 + ai
+        let ring = match self.cut {
+            Cut::Single(_) => 0,
+            Cut::Eight { ex, ey, ew_dir } => {
+                let d = match p.major {
+                    Major::Row => (y as f64 - ey).abs(),
+                    Major::Column => (x as f64 - ex).abs(),
+                };
+                ring_of(d, ex, ey, ew_dir, self.width, self.height)
+            }
+        };
+        ring * 8 * n + sweep as u64 * 2 * n + li * 2 * len as u64 + half as u64 * len as u64 + ai
     }
 }
 

@@ -2,11 +2,18 @@
 //! (`docs/warper-reference.md` §5), evaluated with the warp's own
 //! geometry so that reports can set the measured peak occupancy beside it.
 //!
-//! Job: `WS ≈ Wsheet × (k + t + Δtilt + Δpar) × Bcache`, in tiles, where
-//! - `Wsheet` is the longest line of the hole fill's order in the derived
-//!   image (the sweep's width across its direction of travel, samples);
+//! Job: `WS ≈ Wsheet × (k + t + Δtilt + Δpar + Δring) × Bcache`, in tiles,
+//! where
+//! - `Wsheet` is the width of the fill's front in the derived image
+//!   (samples): per ring band of the fill's order (`traversal.rs` rule 6),
+//!   the longest line of each sweep in it, summed over the sweeps, and
+//!   the largest such sum (one sweep: its longest line; the epipole inside
+//!   the image: the ring's perimeter);
+//! - `Δring` is [`crate::traversal::RING_BAND`] when that band holds more
+//!   than one sweep (the warp runs a band of one sweep before the next, so
+//!   the fill lags up to a band), else 0;
 //! - `k` is the kernel limit and `t` the tile side (samples);
-//! - `Δtilt = Wsheet·|sin θ|`, `θ` the roll of the derived camera about its
+//! - `Δtilt = L·|sin θ|`, `L` the fill's longest line, `θ` the roll of the derived camera about its
 //!   view axis relative to the reference (the angle of the reference's x
 //!   axis in the derived image plane);
 //! - `Δpar` is the parallax spread along the sweep: how far the derived
@@ -18,14 +25,15 @@
 //! fill's lines; it changes no timing and no value.
 //!
 //! Not modelled: everything the formula leaves out — the fill's lag behind
-//! the warp's front, release after the last tap reader, the conservative
-//! chunk bounds of the schedule, and the epipole inside the image (sweeps
-//! of the reference and of the derived image that do not correspond).
+//! the warp's front beyond one ring band, release after the last tap
+//! reader, the conservative chunk bounds of the schedule, and rings of the
+//! reference and of the derived image that do not correspond.
 
 use crate::camera::{Camera, WarpSetup};
 use crate::schedule::CoarseDepth;
-use crate::traversal::{Line, Major};
+use crate::traversal::{Line, Major, RING_BAND, line_ring, sweep_of};
 use glam::DVec3;
+use std::collections::BTreeMap;
 
 /// The model's terms for one warp.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -56,12 +64,26 @@ pub fn predict(
     let Some(longest) = fill_lines.iter().max_by_key(|l| l.len()) else {
         return WorkingSet { sheet_width: 0.0, tilt: 0.0, parallax: 0.0, tiles: 0 };
     };
-    let sheet_width = longest.len() as f64;
+    // The front: per ring band, the longest line of each sweep, summed.
+    let (dw, dh) = (dst.intrinsics.width, dst.intrinsics.height);
+    let mut rings: BTreeMap<u64, [u32; 4]> = BTreeMap::new();
+    for l in fill_lines {
+        let w =
+            &mut rings.entry(line_ring(dw, dh, &setup.epipole_derived, l)).or_default()[sweep_of(l.sheet).0 as usize];
+        *w = (*w).max(l.len());
+    }
+    let (front, sweeps) = rings
+        .values()
+        .map(|w| (w.iter().map(|&v| v as u64).sum::<u64>(), w.iter().filter(|&&v| v > 0).count()))
+        .max()
+        .unwrap_or((0, 0));
+    let sheet_width = front as f64;
+    let ring = if sweeps > 1 { RING_BAND as f64 } else { 0.0 };
     // Roll: the reference's x axis seen in the derived camera's frame.
     let x_ref = src.pose.orientation * DVec3::X;
     let v = dst.pose.orientation.inverse() * x_ref;
     let roll = v.y.atan2(v.x);
-    let tilt = sheet_width * roll.sin().abs();
+    let tilt = longest.len() as f64 * roll.sin().abs();
     let parallax = match depth.overall() {
         Some((lo, hi)) => {
             let (cx, cy) = (ref_size.0 as f64 / 2.0, ref_size.1 as f64 / 2.0);
@@ -79,7 +101,7 @@ pub fn predict(
         }
         None => 0.0,
     };
-    let band = kernel_limit as f64 + tile as f64 + tilt + parallax;
+    let band = kernel_limit as f64 + tile as f64 + tilt + parallax + ring;
     let tiles = (sheet_width * band / (tile as f64 * tile as f64)).ceil() as u64;
     WorkingSet { sheet_width, tilt, parallax, tiles }
 }

@@ -25,15 +25,21 @@
 //!    octants with the same axis and line direction (vertical below,
 //!    vertical above, horizontal right, horizontal left of the epipole:
 //!    *sweeps* 0–3) by line index, the lower-numbered octant first at one
-//!    line (octant number = 4·horizontal + 2·left + 1·above), so that each
-//!    sweep crosses its half-plane as one front; [`visit`] and [`sheets`]
-//!    give the octants one after the other.
-//! 6. The warp uses the *reverse* of this order within each sweep in the
-//!    reference image, so that its sweep front crosses the derived image in
-//!    the hole-fill order (`docs/warper-reference.md` §5, critical
-//!    consistency point), and visits the sweeps in increasing order, so that
-//!    the fill of sweep `k` of the derived image can follow the warp of
-//!    sweep `k` of the reference ([`warp_order`], [`OrderKey::warp_key`]).
+//!    line (octant number = 4·horizontal + 2·left + 1·above), and the
+//!    sweeps by *ring band*: a sample's L-infinity distance from the
+//!    epipole (`|dy|` in a vertical octant, `|dx|` in a horizontal one),
+//!    less the epipole's L-infinity distance to the image's sample box,
+//!    in bands of [`RING_BAND`] lines, counted inward toward a front
+//!    epipole and outward from a behind one. The key is (ring band,
+//!    sweep, line, octant, position): the sweeps advance together as
+//!    square rings around the epipole. [`visit`] and [`sheets`] give the
+//!    octants one after the other.
+//! 6. The warp uses the *reverse* of this order within each sweep's band
+//!    in the reference image, so that its sweep front crosses the derived
+//!    image in the hole-fill order (`docs/warper-reference.md` §5, critical
+//!    consistency point): the ring bands in reverse, in each band the
+//!    sweeps in increasing order, each read backwards ([`warp_order`],
+//!    [`OrderKey::warp_key`]).
 //!
 //! Not modelled here: tile order (the hardware schedule), seams between
 //! octants near the epipole (adjacent samples on different octants may be
@@ -41,6 +47,13 @@
 
 use glam::DVec2;
 use postwarp_rtl::camera::{Epipole, EpipoleKind};
+
+/// Lines per ring band (rule 5): the sweeps interleave band by band; the
+/// hardware's sheet sequencer uses the same (`postwarp_rtl::traversal`,
+/// `tests/hw_traversal_hole_fill.rs`).
+pub const RING_BAND: u32 = 8;
+/// More ring bands than any image has (keys hold 20 bits of ring).
+const RING_CAP: u64 = 1 << 20;
 
 /// Which axis a sheet is scanned along.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -271,6 +284,8 @@ pub struct OrderKey {
     height: u32,
     /// Finite epipole point, if any.
     point: Option<DVec2>,
+    /// The epipole is in front (`ew > 0`): rings are visited inward.
+    front: bool,
     /// Scan pattern per octant (finite epipole) or of the single sheet.
     scans: [(Major, i32, i32); 8],
 }
@@ -284,7 +299,10 @@ impl OrderKey {
             EpipoleKind::Front { point } => (Some(point), OCTANTS.map(|o| octant_scan(o, 1.0))),
             EpipoleKind::Behind { point } => (Some(point), OCTANTS.map(|o| octant_scan(o, -1.0))),
         };
-        OrderKey { width, height, point, scans }
+        // Keys hold 20 bits of line and of position.
+        assert!(width <= 1 << 20 && height <= 1 << 20, "{width}x{height}: more than 2^20 samples per side");
+        let front = matches!(epipole.kind(), EpipoleKind::Front { .. });
+        OrderKey { width, height, point, scans, front }
     }
 
     /// Index of the sheet of sample `(x, y)` (in visiting order for a finite
@@ -306,8 +324,24 @@ impl OrderKey {
         info(self.scans[self.sheet(x, y)])
     }
 
-    /// Rank key of sample `(x, y)`: sweep, then line, then which octant of
-    /// the sweep, then position in line (rule 5).
+    /// The ring band of sample `(x, y)` in travel order (rule 5): its
+    /// L-infinity distance from the epipole, less the image's nearest,
+    /// in bands of [`RING_BAND`] lines, counted inward toward a front
+    /// epipole.
+    fn ring(&self, x: u32, y: u32) -> u64 {
+        let Some(e) = self.point else { return 0 };
+        let d = match self.scans[self.sheet(x, y)].0 {
+            Major::Row => (y as f64 - e.y).abs(),
+            Major::Column => (x as f64 - e.x).abs(),
+        };
+        let (w, h) = ((self.width - 1) as f64, (self.height - 1) as f64);
+        let dmin = 0f64.max(-e.x).max(e.x - w).max(-e.y).max(e.y - h);
+        let r = (((d - dmin).max(0.0) / RING_BAND as f64).floor() as u64).min(RING_CAP - 1);
+        if self.front { RING_CAP - 1 - r } else { r }
+    }
+
+    /// Rank key of sample `(x, y)`: ring band, then sweep, then line, then
+    /// which octant of the sweep, then position in line (rule 5).
     pub fn key(&self, x: u32, y: u32) -> u64 {
         let sheet = self.sheet(x, y);
         let (major, line_step, step) = self.scans[sheet];
@@ -318,15 +352,16 @@ impl OrderKey {
         let l = if line_step > 0 { line } else { lines - 1 - line } as u64;
         let a = if step > 0 { along } else { len - 1 - along } as u64;
         let (sweep, half) = sweep_of(sheet);
-        (sweep << 58) | (l << 29) | (half << 28) | a
+        (self.ring(x, y) << 44) | (sweep << 42) | (l << 21) | (half << 20) | a
     }
 
-    /// Rank key of sample `(x, y)` in the warp's order (rule 6): its sweep,
-    /// then the rest of [`OrderKey::key`] complemented.
+    /// Rank key of sample `(x, y)` in the warp's order (rule 6): the ring
+    /// bands reversed, each band's sweeps in increasing order, the rest of
+    /// [`OrderKey::key`] complemented.
     pub fn warp_key(&self, x: u32, y: u32) -> u64 {
         let k = self.key(x, y);
-        let rest = (1u64 << 58) - 1;
-        (k & !rest) | (!k & rest)
+        let rest = (1u64 << 42) - 1;
+        ((RING_CAP - 1 - (k >> 44)) << 44) | (k & !rest & ((1 << 44) - 1)) | (!k & rest)
     }
 }
 
@@ -401,7 +436,7 @@ mod tests {
 
     #[test]
     fn order_key_sorts_into_the_traversal_order() {
-        let (w, h) = (13u32, 9u32);
+        let (w, h) = (29u32, 19u32);
         let cases = [
             DVec3::new(6.3, 4.1, 1.0),
             DVec3::new(-12.6, -8.2, -2.0),
@@ -436,7 +471,7 @@ mod tests {
             };
             let mut last = [None::<u32>; 4];
             for &p in &o {
-                let sweep = (k.key(p.0, p.1) >> 58) as usize;
+                let sweep = (k.key(p.0, p.1) >> 42 & 3) as usize;
                 let r = line_rank(p);
                 assert!(last[sweep].is_none_or(|q| q <= r), "epipole {hv:?}: sweep {sweep} stepped back at {p:?}");
                 last[sweep] = Some(r);

@@ -195,8 +195,8 @@ pub struct HwCounters<N> {
     /// Most destination tiles held at once, per reference warp (tiles).
     #[serde(default)]
     pub peak_tiles: Vec<N>,
-    /// Tiles held when the warp's last line was set up, last written in an
-    /// earlier sweep, per reference warp (tiles).
+    /// Tiles held when the warp's last line was set up, last written 8 or
+    /// more ring bands before its last live line, per reference warp (tiles).
     #[serde(default)]
     pub tiles_held_to_warp_end: Vec<N>,
     /// Stamps composited ahead of an older stamp in the miss queue (stamps).
@@ -698,8 +698,8 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "tiles_held_to_warp_end",
             "tiles",
             "per reference warp: destination tiles still held (loading, resident or spilled) when kernel setup set up \
-             the warp's last line although their last write came in an earlier sweep: the hole fill could not follow \
-             the warp to them, so fill on eviction failed for them; 0 when the warp's sweeps correspond to the fill's",
+             the warp's last line although their last write came 8 or more ring bands (64 reference lines) before \
+             its last live line: the hole fill could not follow the warp to them, so fill on eviction failed for them",
         ),
         scalar(
             "composite_bypasses",
