@@ -6,14 +6,17 @@
 //! latency-limited channel, and count its bytes per client.
 //!
 //! API: [`dram`] ([`Dram`], [`DramConfig`], [`Client`], [`Access`],
-//! [`Request`], [`DRAM_STATS`]) and [`port`] (the memory port: [`MemPort`],
-//! request [`Tag`]s).
+//! [`Request`], [`DRAM_STATS`]), [`port`] (the memory port: [`MemPort`],
+//! request [`Tag`]s) and [`layout`] (the memory map that gives every
+//! request its address: [`MemoryLayout`], [`Region`]).
 //!
 //! Rules and timing: see [`dram`]. Not modelled here: on-chip caches (the
 //! source and destination caches are units of their own).
 
 pub mod dram;
+pub mod layout;
 pub mod port;
 
 pub use dram::{Access, Client, DRAM_STATS, Dram, DramConfig, Request};
+pub use layout::{MemoryLayout, Region, RegionKind};
 pub use port::{MemPort, Req, Tag};
