@@ -516,20 +516,24 @@ impl WarpPlan {
 
     /// When kernel setup has set up the warp's last line: the tiles still
     /// held (loading, resident or spilled) whose last write came at least
-    /// [`HELD_RING_BANDS`] ring bands before the warp's last live line
+    /// [`held_bands`] ring bands before the warp's last live line
     /// ([`FrameStats::tiles_held_to_warp_end`]).
     fn held_to_end(&self, cache: &DestCache) -> u64 {
         let lines = &self.sched.lines;
-        let Some(last_live) = self.sched.live.iter().rposition(|&v| v) else { return 0 };
+        let live = &self.sched.live;
+        let (Some(first), Some(last)) = (live.iter().position(|&v| v), live.iter().rposition(|&v| v)) else {
+            return 0;
+        };
         let (w, h, e) = self.ring_of;
         let ring = |l: usize| line_ring(w, h, &e, &lines[l]);
-        let end = ring(last_live);
+        let end = ring(last);
+        let at_least = held_bands(ring(first).abs_diff(end) + 1);
         self.sched
             .retire
             .iter()
             .enumerate()
             .filter(|&(t, r)| {
-                r.is_some_and(|l| ring(l as usize).abs_diff(end) >= HELD_RING_BANDS)
+                r.is_some_and(|l| ring(l as usize).abs_diff(end) >= at_least)
                     && matches!(cache.state(t as u32), TileState::Loading | TileState::Resident | TileState::Spilled)
             })
             .count() as u64
@@ -538,10 +542,14 @@ impl WarpPlan {
 
 /// How far behind the warp's end (in ring bands of the warp's order,
 /// `traversal.rs` rule 6) a tile's last write must lie for a tile still
-/// held at the end to count as held to the warp's end: twice the deepest
-/// end front measured on the bundled and 640x480 traces (4 bands), so a
-/// tile counts only when the fill could not follow the warp to it.
-pub const HELD_RING_BANDS: u64 = 8;
+/// held at the end to count as held to the warp's end, for a warp whose
+/// live lines span `span` ring bands: a sixteenth of the span, and at
+/// least 8 bands. The end front (tiles rightly held at the end) reached
+/// 4 of 187 bands on the 640x480 room and 9 of about 300 at 1000x1000:
+/// a tile counts only when the fill could not follow the warp to it.
+pub fn held_bands(span: u64) -> u64 {
+    (span / 16).max(8)
+}
 
 /// The units of one warp and the FIFOs between them.
 struct Pipeline<'s> {

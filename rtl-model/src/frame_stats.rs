@@ -52,7 +52,7 @@ pub struct FrameStats {
     pub tile_evictions: Vec<u64>,
     /// Destination tiles still held when kernel setup finished the warp's
     /// last line although their last write came at least
-    /// [`crate::engine::HELD_RING_BANDS`] ring bands before the warp's last
+    /// [`crate::engine::held_bands`] ring bands before the warp's last
     /// live line: the fill could not follow the warp to them (fill on
     /// eviction failed), per reference warp (tiles).
     pub tiles_held_to_warp_end: Vec<u64>,
@@ -188,7 +188,7 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter(
         "tiles_held_to_warp_end.<warp>",
         "tiles",
-        "tiles still held when the warp's last line was set up, last written 8 or more ring bands before its last live line (fill on eviction failed)",
+        "tiles still held when the warp's last line was set up, last written max(8, span/16) or more ring bands before its last live line, span = ring bands of its live lines (fill on eviction failed)",
     ),
     StatDef::counter(
         "composite_bypasses",

@@ -199,8 +199,8 @@ pub struct HwCounters<N> {
     /// Most destination tiles held at once, per reference warp (tiles).
     #[serde(default)]
     pub peak_tiles: Vec<N>,
-    /// Tiles held when the warp's last line was set up, last written 8 or
-    /// more ring bands before its last live line, per reference warp (tiles).
+    /// Tiles held when the warp's last line was set up, last written
+    /// max(8, span/16) or more ring bands before its last live line, per reference warp (tiles).
     #[serde(default)]
     pub tiles_held_to_warp_end: Vec<N>,
     /// Stamps composited ahead of an older stamp in the miss queue (stamps).
@@ -711,8 +711,8 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "tiles_held_to_warp_end",
             "tiles",
             "per reference warp: destination tiles still held (loading, resident or spilled) when kernel setup set up \
-             the warp's last line although their last write came 8 or more ring bands (64 reference lines) before \
-             its last live line: the hole fill could not follow the warp to them, so fill on eviction failed for them",
+             the warp's last line although their last write came max(8, span/16) ring bands before its last live line \
+             (span: the ring bands its live lines cover): the hole fill could not follow the warp to them, so fill on eviction failed for them",
         ),
         scalar(
             "composite_bypasses",
