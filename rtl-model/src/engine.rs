@@ -63,9 +63,9 @@ use crate::config::EngineConfig;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
 use crate::hw_reference::abuffer_params;
-use crate::mem::{Dram, DramBackendFactory, MemPort, Tag};
+use crate::mem::{Dram, DramBackendFactory, MemPort, MemoryLayout, Region, Tag};
 use crate::schedule::{Schedule, fill_first_lines, release_order};
-use crate::timeline::{Occupancy, Timeline};
+use crate::timeline::{Occupancy, RequestSpan, Timeline};
 use crate::traversal::{sweep_of, warp_lines};
 use crate::units::abuffer::AbufferCounters;
 use crate::units::composite::{CompositePorts, CompositeStage};
@@ -104,6 +104,11 @@ pub struct FrameOutput {
     pub stats: FrameStats,
     /// The frame's timeline, when recording ([`Engine::record_timeline`]).
     pub timeline: Option<Timeline>,
+    /// The frame's memory map (`mem::layout`): every request's address.
+    pub layout: MemoryLayout,
+    /// Every DRAM request in acceptance order, when recording
+    /// ([`Engine::record_requests`]); else empty.
+    pub requests: Vec<RequestSpan>,
 }
 
 /// The hardware model: create one per configuration and run frames on it.
@@ -111,6 +116,7 @@ pub struct Engine {
     cfg: EngineConfig,
     buffer: LineBuffer,
     record: bool,
+    record_requests: bool,
     skip: bool,
     /// The DRAM backend of `dram_backend` other than `ideal`, one per frame.
     backend: Option<DramBackendFactory>,
@@ -150,13 +156,19 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
-        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, skip: true, backend })
+        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, record_requests: false, skip: true, backend })
     }
 
     /// Record a [`Timeline`] of every frame from now on (or stop). Values
     /// and cycles do not change.
     pub fn record_timeline(&mut self, on: bool) {
         self.record = on;
+    }
+
+    /// Record every DRAM request of every frame from now on (or stop), in
+    /// [`FrameOutput::requests`]. Values and cycles do not change.
+    pub fn record_requests(&mut self, on: bool) {
+        self.record_requests = on;
     }
 
     /// Skip idle stretches (the default) or step every cycle. Stepping is
@@ -182,6 +194,8 @@ impl Engine {
         let dst = cmd.derived_camera.sample_grid(cfg.supersample);
         let (dw, dh) = (dst.intrinsics.width, dst.intrinsics.height);
         let mut f = DestFrame::new(dw, dh);
+        let sizes: Vec<(u32, u32)> = refs.iter().map(|r| (r.width, r.height)).collect();
+        let layout = MemoryLayout::new(cfg, (dw, dh), &sizes);
         let mut m = Machine {
             cfg,
             skip: self.skip,
@@ -197,14 +211,16 @@ impl Engine {
             ab: AbufferCounters::default(),
             timeline: self.record.then(|| Timeline::new(UNITS.len(), occupancy_series(cfg))),
         };
-        if m.timeline.is_some() {
+        m.cache.place(*layout.dest_tiles(), *layout.dest_spill());
+        if m.timeline.is_some() || self.record_requests {
             m.dram.record_requests();
         }
         m.dram.tick(m.now);
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
         for (j, (warp, r)) in cmd.warps.iter().zip(refs).enumerate() {
             let tu = TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
-            m.run_warp(&mut f, &WarpInput { tu: &tu, r, number: j, dst }, &mut self.buffer);
+            let region = *layout.reference(j);
+            m.run_warp(&mut f, &WarpInput { tu: &tu, r, number: j, dst, region }, &mut self.buffer);
             m.stats.reference_packed_bytes += r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
             m.stats.dest_packed_bytes.push(m.cache.packed_bytes().iter().sum());
         }
@@ -228,13 +244,15 @@ impl Engine {
         stats.display_pixels = (dw / cfg.supersample) as u64 * (dh / cfg.supersample) as u64;
         stats.hole_samples = f.hole.count_ones() as u64;
         stats.empty_samples = (0..f.len()).filter(|&i| !f.real[i] && !f.hole[i]).count() as u64;
+        let spans = m.dram.take_requests();
         let timeline = m.timeline.take().map(|mut t| {
             t.close(m.now);
-            t.requests = m.dram.take_requests();
+            t.requests = spans.clone();
             t
         });
+        let requests = if self.record_requests { spans } else { Vec::new() };
         let (pixels, covered) = resolve(&f, self.cfg.supersample);
-        FrameOutput { frame: f, pixels, covered, unseen, stats, timeline }
+        FrameOutput { frame: f, pixels, covered, unseen, stats, timeline, layout, requests }
     }
 }
 
@@ -246,6 +264,8 @@ struct WarpInput<'a> {
     number: usize,
     /// The derived sample grid.
     dst: Camera,
+    /// Where the reference is in DRAM.
+    region: Region,
 }
 
 /// Clocked state shared by the warps of one frame: the clock, the memory
@@ -343,7 +363,7 @@ impl Machine<'_> {
     /// After the last warp: the display reads the frame as written back,
     /// every unit idle.
     fn display_read(&mut self) {
-        display::queue_frame_read(&mut self.port, self.cache.packed_bytes());
+        display::queue_frame_read(&mut self.port, &self.cache);
         let mut none = DestFrame::new(0, 0);
         loop {
             let arrived = self.deliver(&mut none, None);
@@ -575,6 +595,7 @@ impl<'s> Pipeline<'s> {
             r.packed.bytes_in_pixels(bx * side, by * side, (bx + 1) * side, (by + 1) * side)
         });
         cache.warp = w.number as u32;
+        cache.place(w.region);
         let (thr, rate) = (cfg.transform_throughput, cfg.rects_per_cycle);
         let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);
         let a = || Activity::starting(now, record);

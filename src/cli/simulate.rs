@@ -1,6 +1,7 @@
 //! `postwarp simulate`: the cycle-level hardware model on a trace, checked
 //! against the golden model.
 
+use crate::report::dram_trace::{DramTraceFormat, DramTraceWriter};
 use crate::run::hw_config_toml::{dump, load};
 use crate::run::simulate::run_simulate;
 use crate::trace::Trace;
@@ -44,6 +45,16 @@ pub struct Args {
     #[arg(long, value_name = "CYCLES", default_value_t = crate::report::timeline::DEFAULT_RESOLUTION,
           value_parser = clap::value_parser!(u64).range(1..=1 << 32), requires = "timeline")]
     pub timeline_resolution: u64,
+    /// Also write every DRAM request of the run to FILE, for open-loop
+    /// replay in a DRAM simulator: one line or packet per burst, frames in
+    /// order, times continuing across frames; gzip if FILE ends in `.gz`
+    /// (docs/memory-layout.md, "Request traces").
+    #[arg(long, value_name = "FILE", requires = "out")]
+    pub dram_trace: Option<PathBuf>,
+    /// Format of --dram-trace: dramsim3 (`0xADDR READ|WRITE CYCLE`),
+    /// ramulator2 (`LD|ST 0xADDR`) or gem5 (protobuf packet trace).
+    #[arg(long, value_name = "FORMAT", value_enum, default_value = "dramsim3", requires = "dram_trace")]
+    pub dram_trace_format: DramTraceFormat,
 }
 
 pub fn run(a: Args) -> anyhow::Result<()> {
@@ -66,7 +77,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let (Some(trace), Some(out)) = (&a.trace, &a.out) else { return Ok(()) };
     let trace = Trace::open(trace)?;
     let staged = crate::io_util::OutDir::create(out, a.force, &[&trace.manifest])?;
-    let r = run_simulate(&trace, &cfg, staged.path(), a.timeline.then_some(a.timeline_resolution))?;
+    // Created before the run, so an unwritable FILE fails at once.
+    let mut dram_trace = match &a.dram_trace {
+        Some(file) => Some(DramTraceWriter::create(file, a.dram_trace_format, cfg.dram_burst_bytes, cfg.clock_hz)?),
+        None => None,
+    };
+    let r =
+        run_simulate(&trace, &cfg, staged.path(), a.timeline.then_some(a.timeline_resolution), dram_trace.as_mut())?;
+    let transactions = dram_trace.map(DramTraceWriter::finish).transpose()?;
     let dir = staged.commit()?;
     print!("{}", r.summary);
     let total = &r.report.total;
@@ -78,5 +96,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         total.frames
     );
     println!("report: {}", dir.join("report.json").display());
+    if let (Some(file), Some(n)) = (&a.dram_trace, transactions) {
+        println!("DRAM trace: {} ({n} transactions)", file.display());
+    }
     Ok(())
 }

@@ -185,6 +185,10 @@ pub struct HwCounters<N> {
     pub dram_bytes_by_client: ByClient<ReadWrite<N>>,
     /// DRAM requests accepted (requests).
     pub dram_requests: N,
+    /// DRAM bursts moved, reads and writes: the transactions of a
+    /// `--dram-trace` (transactions). Absent from older reports (0).
+    #[serde(default)]
+    pub dram_transactions: N,
     /// Bytes asked for before burst rounding (bytes).
     #[serde(default)]
     pub dram_requested_bytes: N,
@@ -303,8 +307,9 @@ pub struct Fallback<N> {
 }
 
 impl HwCounters<u64> {
-    /// The counters of one frame of the engine.
-    pub fn of(s: &FrameStats) -> HwCounters<u64> {
+    /// The counters of one frame of the engine, on a channel of
+    /// `burst_bytes`-byte bursts.
+    pub fn of(s: &FrameStats, burst_bytes: u64) -> HwCounters<u64> {
         let u = |name: &str| {
             let i = UNITS.iter().position(|n| *n == name).expect("a unit of engine::UNITS");
             let c = &s.units[i];
@@ -334,6 +339,7 @@ impl HwCounters<u64> {
                 write: s.dram.client_bytes_written[c.index()],
             }),
             dram_requests: s.dram.requests,
+            dram_transactions: (s.dram.bytes_read + s.dram.bytes_written) / burst_bytes,
             dram_requested_bytes: s.dram.requested_bytes,
             dram_refused_cycles: s.dram.refused_cycles,
             dram_outstanding_cycles: s.dram.outstanding_cycles,
@@ -715,6 +721,13 @@ pub fn counter_keys() -> Vec<KeyDoc> {
         scalar("dram_write_bytes", "bytes", Reduce::Sum, "DRAM bytes written, all clients, rounded up to whole bursts"),
         nested("dram_bytes_by_client", Reduce::Sum, by_client_bytes_keys, "per DRAM client, `{read, write}` bytes"),
         scalar("dram_requests", "requests", Reduce::Sum, "DRAM requests accepted"),
+        scalar(
+            "dram_transactions",
+            "transactions",
+            Reduce::Sum,
+            "DRAM bursts moved, reads and writes: `(dram_read_bytes + dram_write_bytes) / dram_burst_bytes`, one line or \
+             packet each in a `--dram-trace` (docs/memory-layout.md), the count its replay reproduces",
+        ),
     ]
     .into_iter()
     .chain(super::dram::counter_keys())
@@ -949,7 +962,7 @@ mod tests {
 
     #[test]
     fn every_field_has_a_row() {
-        let c = HwCounters::of(&FrameStats::default());
+        let c = HwCounters::of(&FrameStats::default(), 32);
         same_keys(&serde_json::to_value(&c).unwrap(), &counter_keys(), "counters");
         let rates = HwRates {
             bytes_per_display_pixel: Some(ByClient::default()),

@@ -40,6 +40,7 @@
 pub mod csv;
 pub mod docs;
 pub mod dram;
+pub mod dram_trace;
 pub mod golden;
 pub mod hardware;
 pub mod images;

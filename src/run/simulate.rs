@@ -33,6 +33,7 @@ use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
 use crate::metrics::psnr::psnr_rgb;
 use crate::picture::{to_srgb8, write_png};
 use crate::report::SimulateReport;
+use crate::report::dram_trace::DramTraceWriter;
 use crate::report::hardware::{ByClient, HwCounters, HwRates};
 use crate::report::quality::Truth;
 use crate::report::simulate::{HwFrame, VsGolden};
@@ -59,15 +60,18 @@ pub struct SimulateRun {
 /// Run `trace` on the hardware model configured by `cfg`, writing the
 /// frames and `report.json` into `out`, with a progress bar on a terminal.
 /// With `timeline = Some(resolution)`, also `timeline-NNNN.json` per frame
-/// (`report::timeline`, intervals and counters at that many cycles).
+/// (`report::timeline`, intervals and counters at that many cycles); with
+/// `dram_trace`, every frame's DRAM requests appended to it in frame order
+/// (`report::dram_trace`; the caller finishes it).
 pub fn run_simulate(
     trace: &Trace,
     cfg: &EngineConfig,
     out: &Path,
     timeline: Option<u64>,
+    dram_trace: Option<&mut DramTraceWriter>,
 ) -> anyhow::Result<SimulateRun> {
     let bar = crate::progress::bar(trace.derived.len() as u64, "simulate");
-    let r = measure(trace, cfg, Some(out), &bar, timeline)?;
+    let r = measure(trace, cfg, Some(out), &bar, timeline, dram_trace)?;
     bar.finish_and_clear();
     Ok(r)
 }
@@ -81,7 +85,7 @@ pub fn measure_hardware(
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<SimulateRun> {
-    measure(trace, cfg, out, bar, None)
+    measure(trace, cfg, out, bar, None, None)
 }
 
 fn measure(
@@ -90,6 +94,7 @@ fn measure(
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
     timeline: Option<u64>,
+    mut dram_trace: Option<&mut DramTraceWriter>,
 ) -> anyhow::Result<SimulateRun> {
     let mut cfg = cfg.clone();
     let ss = trace.display.supersample;
@@ -97,6 +102,7 @@ fn measure(
     cfg.supersample = ss;
     let mut engine = crate::dram::engine(cfg.clone()).map_err(|e| anyhow::anyhow!("hardware configuration: {e}"))?;
     engine.record_timeline(timeline.is_some() && out.is_some());
+    engine.record_requests(dram_trace.is_some());
     let gcfg = golden_config_for(&cfg);
     if let Some(out) = out {
         std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
@@ -133,6 +139,9 @@ fn measure(
         let t = Instant::now();
         let hw = engine.run_frame(&cmd, &hw_refs);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
+        if let Some(w) = dram_trace.as_deref_mut() {
+            w.frame(&hw.requests, hw.stats.cycles)?;
+        }
         let t = Instant::now();
         let golden = warper.warp_frame(&cmd, &g_refs, &gcfg);
         let golden_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -173,7 +182,7 @@ fn measure(
                     .with_context(|| format!("writing {}", path.display()))?;
             }
         }
-        let counters = HwCounters::of(&hw.stats);
+        let counters = HwCounters::of(&hw.stats, cfg.dram_burst_bytes);
         frames.push(HwFrame {
             index: k,
             rates: HwRates::of(&counters.as_f64(), &cfg),

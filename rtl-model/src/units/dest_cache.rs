@@ -30,13 +30,17 @@
 //!    load as rule 1 does, into a free slot only, and queues it with the
 //!    prefetch requests (below demand loads and write-backs).
 //!
+//! 6. Addresses (`mem::layout`): packed loads and write-backs of tile `t`
+//!    use slot `t` of `dest_tiles`; a spill writes and the reload after a
+//!    capacity miss reads slot `t` of `dest_spill` ([`DestCache::place`]).
+//!
 //! Not modelled: tag look-up latency, bank conflicts.
 
 use super::tile_cache::{Lookup, TileCache, TileState};
 use crate::clock::Cycle;
 use crate::config::CACHE_BYTES_PER_SAMPLE;
 use crate::dest_frame::DestFrame;
-use crate::mem::{Access, Client, MemPort, Req, Tag};
+use crate::mem::{Access, Client, MemPort, Region, Req, Tag};
 
 /// The destination cache: tags, the tile grid and the packed size of every
 /// tile in memory.
@@ -54,6 +58,10 @@ pub struct DestCache {
     warp: usize,
     /// Tiles loaded in the current warp (tiles).
     loads: u64,
+    /// The packed tiles in DRAM (`mem::layout`).
+    packed: Region,
+    /// The spill area in DRAM.
+    spill: Region,
 }
 
 impl DestCache {
@@ -72,7 +80,28 @@ impl DestCache {
             tile_y: (0..height).map(|y| y / tile_size * tiles.0).collect(),
             warp: 0,
             loads: 0,
+            packed: Region::EMPTY,
+            spill: Region::EMPTY,
         }
+    }
+
+    /// Put the frame's packed tiles at `packed` and its spill area at
+    /// `spill` of the memory map (both at address 0 until placed).
+    pub fn place(&mut self, packed: Region, spill: Region) {
+        self.packed = packed;
+        self.spill = spill;
+    }
+
+    /// DRAM address of tile `t` in A-buffer format (bytes; rule 6).
+    #[inline]
+    pub fn tile_addr(&self, t: u32) -> u64 {
+        self.packed.slot(t)
+    }
+
+    /// DRAM address of tile `t`'s raw spill slot (bytes; rule 6).
+    #[inline]
+    pub fn spill_addr(&self, t: u32) -> u64 {
+        self.spill.slot(t)
     }
 
     /// Start warp number `warp` of the frame (the cache is empty).
@@ -162,9 +191,9 @@ impl DestCache {
         port: &mut MemPort,
     ) -> bool {
         let (lookup, spilled) = self.tags.access(t, now, counted, pinned);
-        if spilled.is_some() {
-            let bytes = self.raw_tile_bytes();
-            port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes, tag: Tag::Write });
+        if let Some(v) = spilled {
+            let (addr, bytes) = (self.spill_addr(v), self.raw_tile_bytes());
+            port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr, bytes, tag: Tag::Write });
         }
         match lookup {
             Lookup::Hit => true,
@@ -179,7 +208,7 @@ impl DestCache {
                 port.demand(Req {
                     client: Client::TileFill,
                     access: Access::Read,
-                    addr: 0,
+                    addr: self.spill_addr(t),
                     bytes,
                     tag: Tag::Tile { tile: t, fresh: false },
                 });
@@ -212,7 +241,7 @@ impl DestCache {
         let req = Req {
             client: Client::TileFill,
             access: Access::Read,
-            addr: 0,
+            addr: self.tile_addr(t),
             bytes,
             tag: Tag::Tile { tile: t, fresh: true },
         };

@@ -2,7 +2,8 @@
 //! finished frame from memory as the packer wrote it back.
 //!
 //! Job: queue one read per tile of the frame's packed bytes, in tile
-//! order, at the memory port's lowest priority. The engine then runs the
+//! order, from the tile's slot of the memory map (`mem::layout`,
+//! `dest_tiles`: the display reads the frame in place), at the memory port's lowest priority. The engine then runs the
 //! memory until every read has completed; those cycles are part of the
 //! frame's `cycles`, with every warper unit idle.
 //!
@@ -16,12 +17,14 @@
 //! Not modelled: the display's scan-out timing and its line buffers; the
 //! box filter (`units::resolve`) runs outside the cycle count.
 
+use super::dest_cache::DestCache;
 use crate::mem::{Access, Client, MemPort, Req, Tag};
 
-/// Queue the display's reads of a frame whose tiles occupy `packed_bytes`
-/// in memory.
-pub fn queue_frame_read(port: &mut MemPort, packed_bytes: &[u64]) {
-    for &bytes in packed_bytes {
-        port.output(Req { client: Client::Output, access: Access::Read, addr: 0, bytes, tag: Tag::Output });
+/// Queue the display's reads of the frame whose tiles `cache` last wrote
+/// back (their packed sizes and addresses).
+pub fn queue_frame_read(port: &mut MemPort, cache: &DestCache) {
+    for (t, &bytes) in cache.packed_bytes().iter().enumerate() {
+        let addr = cache.tile_addr(t as u32);
+        port.output(Req { client: Client::Output, access: Access::Read, addr, bytes, tag: Tag::Output });
     }
 }

@@ -294,7 +294,7 @@ impl FallbackStage {
             io.port.write(Req {
                 client: Client::TileWriteBack,
                 access: Access::Write,
-                addr: 0,
+                addr: io.cache.tile_addr(t),
                 bytes,
                 tag: Tag::Write,
             });

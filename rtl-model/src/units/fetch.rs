@@ -13,7 +13,9 @@
 //! Rules:
 //! 1. The reference is stored in blocks of `B x B` pixels,
 //!    `B = tile_size / supersample`; a block's bytes are its fragments and
-//!    headers in the A-buffer memory format (`units::abuffer`).
+//!    headers in the A-buffer memory format (`units::abuffer`), read from
+//!    the start of the block's slot in the reference's region of the
+//!    memory map (`mem::layout`).
 //! 2. The source cache holds whole blocks, up to `source_cache_bytes` of
 //!    their actual (packed) size, replacing the least recently used.
 //! 3. Prefetch: when the fetch unit starts an interval it queues the reads
@@ -38,7 +40,7 @@ use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::clock::Cycle;
 use crate::hw_reference::HwReference;
 use crate::lru::Lru;
-use crate::mem::{Access, Client, MemPort, Req, Tag};
+use crate::mem::{Access, Client, MemPort, Region, Req, Tag};
 use crate::schedule::FetchInterval;
 use crate::traversal::Major;
 
@@ -89,6 +91,9 @@ pub struct SourceCache {
     /// The warp this cache serves (its number in the frame's warp order),
     /// carried by its read requests (`Tag::Block`).
     pub warp: u32,
+    /// Where the reference's blocks are in DRAM (`mem::layout`; empty, at
+    /// address 0, until [`SourceCache::place`]).
+    region: Region,
 }
 
 impl SourceCache {
@@ -118,6 +123,7 @@ impl SourceCache {
             row_block: (0..h).map(|y| y / side * blocks.0).collect(),
             counters: SourceCacheCounters::default(),
             warp: 0,
+            region: Region::EMPTY,
         }
     }
 
@@ -125,6 +131,17 @@ impl SourceCache {
     #[inline]
     pub fn block_of(&self, x: u32, y: u32) -> u32 {
         self.row_block[y as usize] + self.col_block[x as usize]
+    }
+
+    /// Put the reference's blocks at `region` of the memory map.
+    pub fn place(&mut self, region: Region) {
+        self.region = region;
+    }
+
+    /// DRAM address of block `b` (bytes).
+    #[inline]
+    pub fn addr(&self, b: u32) -> u64 {
+        self.region.slot(b)
     }
 
     /// Packed bytes of block `b`.
@@ -260,7 +277,7 @@ impl<'s> FetchStage<'s> {
             port.prefetch(Req {
                 client: Client::ReferenceFetch,
                 access: Access::Read,
-                addr: 0,
+                addr: cache.addr(b),
                 bytes: cache.bytes(b),
                 tag: Tag::Block { block: b, warp: cache.warp },
             });

@@ -15,7 +15,8 @@
 //! Throughput: `packer_pixels_per_cycle` pixels per clock (lanes): a tile
 //! occupies the packer for ⌈(`tile_size` / `supersample`)² / lanes⌉
 //! cycles, during which it is *busy*; its write-back is queued when the
-//! release starts.
+//! release starts, to the tile's slot of the memory map
+//! (`DestCache::tile_addr`).
 //!
 //! Rules:
 //! 1. Tiles are released strictly in release order, each only once the
@@ -122,7 +123,8 @@ impl<'s> PackerStage<'s> {
         let side = ts / ss;
         let bytes =
             round_trip_dest_pixels(io.frame, px0, py0, px0 + side, py0 + side, &self.params, &mut self.counters);
-        io.port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr: 0, bytes, tag: Tag::Write });
+        let addr = io.cache.tile_addr(t);
+        io.port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr, bytes, tag: Tag::Write });
         io.cache.release(t, bytes);
         self.evictions += 1;
         self.next += 1;
