@@ -5,9 +5,10 @@
 //! fewer cycles than a perfect memory (every request back the next cycle),
 //! the DRAM statistics of the report, and the same bytes twice.
 //!
-//! Until requests carry the layout's addresses (issue 16, item 1) they all
-//! address byte 0, so DRAMsim3 sees one row and forwards reads from its
-//! write buffer: cycles are then no measure of the part (docs/memory.md).
+//! Requests carry the memory map's addresses (`docs/memory-layout.md`), so
+//! row hits are a real outcome; against the `mark1998` ideal channel a
+//! DRAMsim3 part can be faster or slower (`docs/memory.md`), hence the
+//! perfect-memory bound.
 #![cfg(feature = "dramsim3")]
 
 use serde_json::Value;
