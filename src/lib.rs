@@ -9,6 +9,7 @@
 pub mod bench;
 pub mod chart;
 pub mod cli;
+pub mod dram;
 pub mod fuzz_entry;
 pub mod golden;
 pub mod import;

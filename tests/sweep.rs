@@ -241,8 +241,9 @@ fn charts_are_written_valid_and_the_same_bytes_for_the_same_csv() {
     let mut names: Vec<String> =
         std::fs::read_dir(&charts).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     names.sort();
-    // room: 3 qualities x 3 costs; slants (CPU methods only): 3 x host time.
-    assert_eq!(names.len(), 2 * (9 + 3), "{names:?}");
+    // room: 3 qualities x 4 costs; slants (CPU methods only): 3 x host time.
+    assert_eq!(names.len(), 2 * (12 + 3), "{names:?}");
+    assert!(names.contains(&"room.psnr_luma_db-vs-dram_achieved_gbps.svg".to_string()));
     assert!(names.contains(&"room.flip_mean-vs-dram_gbps_at_target_rate.svg".to_string()));
     assert!(names.contains(&"slants.psnr_luma_db-vs-host_ms_per_frame.png".to_string()));
     for n in &names {

@@ -100,6 +100,34 @@ use crate::mem::DramConfig;
 /// slopes, flags), after `docs/warper-reference.md` §5 (16 B per sample).
 pub const CACHE_BYTES_PER_SAMPLE: u64 = 16;
 
+/// Values of the `dram_backend` knob.
+pub const DRAM_BACKENDS: &[&str] = &["ideal", "dramsim3"];
+
+/// Check a DRAMsim3 address mapping string the way DRAMsim3 reads it (it
+/// exits the process on a bad one): six two-letter fields, each of `ch`,
+/// `ra`, `bg`, `ba`, `ro`, `co` once.
+pub fn check_address_mapping(m: &str) -> Result<(), String> {
+    const FIELDS: [&str; 6] = ["ch", "ra", "bg", "ba", "ro", "co"];
+    let bad = || {
+        format!(
+            "dram_address_mapping = \"{m}\": expected six two-letter fields, each of {} once, most significant \
+             first (e.g. rochrababgco), or \"\" for the ini's",
+            FIELDS.join(", ")
+        )
+    };
+    if m.len() != 12 || !m.is_ascii() {
+        return Err(bad());
+    }
+    let mut seen: Vec<&str> = (0..6).map(|i| &m[2 * i..2 * i + 2]).collect();
+    seen.sort_unstable();
+    let mut want = FIELDS;
+    want.sort_unstable();
+    if seen != want {
+        return Err(bad());
+    }
+    Ok(())
+}
+
 /// Names accepted by [`EngineConfig::preset`].
 pub const PRESETS: &[&str] = &["mark1998", "hmd2026"];
 
@@ -134,6 +162,19 @@ pub struct EngineConfig {
     pub dram_burst_bytes: u64,
     /// DRAM requests outstanding at once (requests).
     pub dram_max_outstanding: u32,
+    /// What times the DRAM requests ([`DRAM_BACKENDS`]): `ideal` (the
+    /// fixed-latency, one-bus model of `mem::dram`) or `dramsim3` (a closed
+    /// loop through DRAMsim3, provided by the `postwarp` crate's `dramsim3`
+    /// feature).
+    pub dram_backend: String,
+    /// The DRAMsim3 configuration: the name of a shipped ini
+    /// (`configs/dram/`, without `.ini`) or a path to an ini file (only
+    /// with `dram_backend = "dramsim3"`).
+    pub dram_config: String,
+    /// DRAMsim3's `address_mapping`: six two-letter fields (`ch`, `ra`,
+    /// `bg`, `ba`, `ro`, `co`), most significant first, overriding the
+    /// ini's; empty = the ini's own (only with `dram_backend = "dramsim3"`).
+    pub dram_address_mapping: String,
     /// Engine clock frequency (Hz).
     pub clock_hz: u64,
     /// Derived frames per second to sustain, per view (Hz).
@@ -205,6 +246,23 @@ pub const KNOBS: &[(&str, &str, &str)] = &[
     ("dram_latency_cycles", "cycles", "cycles from a DRAM request's acceptance to its first data"),
     ("dram_burst_bytes", "bytes", "DRAM transfer granule; requests are rounded up to whole bursts"),
     ("dram_max_outstanding", "requests", "DRAM requests outstanding at once"),
+    (
+        "dram_backend",
+        "ideal|dramsim3",
+        "what times DRAM requests: `ideal` (dram_latency_cycles, one bus at dram_peak_bytes_per_cycle) or `dramsim3` \
+         (closed loop through DRAMsim3; build with --features dramsim3)",
+    ),
+    (
+        "dram_config",
+        "name|path",
+        "DRAMsim3 ini: a shipped name (configs/dram/, e.g. DDR4_8Gb_x8_3200) or a path to an .ini file",
+    ),
+    (
+        "dram_address_mapping",
+        "text",
+        "DRAMsim3 address_mapping (e.g. rochrababgco: fields ch ra bg ba ro co, most significant first) overriding \
+         the ini's; empty = the ini's",
+    ),
     ("clock_hz", "Hz", "engine clock frequency"),
     ("target_frame_rate_hz", "Hz", "derived frames per second to sustain, per view"),
     ("display_width", "pixels", "display width per view"),
@@ -271,6 +329,11 @@ impl Default for EngineConfig {
             dram_latency_cycles: 12,
             dram_burst_bytes: 32,
             dram_max_outstanding: 16,
+            dram_backend: "ideal".into(),
+            // DRAMsim3 has no SDR SDRAM; its oldest, slowest part is the
+            // first-generation LPDDR at 208 MHz (docs/memory.md).
+            dram_config: "lpddr_2Gb_x16".into(),
+            dram_address_mapping: String::new(),
             clock_hz: 100_000_000,
             target_frame_rate_hz: 30.0,
             display_width: 640,
@@ -311,6 +374,8 @@ impl EngineConfig {
                 dram_latency_cycles: 100,
                 dram_burst_bytes: 64,
                 dram_max_outstanding: 64,
+                // DRAMsim3's newest mobile part (no LPDDR5 config ships).
+                dram_config: "LPDDR4_8Gb_x16_2400".into(),
                 clock_hz: 1_000_000_000,
                 target_frame_rate_hz: 90.0,
                 display_width: 2000,
@@ -349,6 +414,19 @@ impl EngineConfig {
         range("dest_cache_bytes", self.dest_cache_bytes, tile_bytes, 1 << 34, "bytes (at least one tile)")?;
         range("source_cache_bytes", self.source_cache_bytes, 1, 1 << 34, "bytes")?;
         self.dram().validate()?;
+        if !DRAM_BACKENDS.contains(&self.dram_backend.as_str()) {
+            return Err(format!(
+                "dram_backend = \"{}\": expected one of {}",
+                self.dram_backend,
+                DRAM_BACKENDS.iter().map(|b| format!("\"{b}\"")).collect::<Vec<_>>().join(", ")
+            ));
+        }
+        if self.dram_config.is_empty() {
+            return Err("dram_config = \"\": expected a shipped DRAMsim3 ini's name or a path".into());
+        }
+        if !self.dram_address_mapping.is_empty() {
+            check_address_mapping(&self.dram_address_mapping)?;
+        }
         range("clock_hz", self.clock_hz, 1, 1 << 40, "Hz")?;
         let fps = self.target_frame_rate_hz;
         if !(fps.is_finite() && fps > 0.0 && fps <= 10_000.0) {
@@ -443,6 +521,9 @@ mod tests {
             ("dram_latency_cycles", |c| c.dram_latency_cycles = u64::MAX),
             ("dram_burst_bytes", |c| c.dram_burst_bytes = 24),
             ("dram_max_outstanding", |c| c.dram_max_outstanding = 0),
+            ("dram_backend", |c| c.dram_backend = "ramulator".into()),
+            ("dram_config", |c| c.dram_config = String::new()),
+            ("dram_address_mapping", |c| c.dram_address_mapping = "rochrababgcoX".into()),
             ("clock_hz", |c| c.clock_hz = 0),
             ("target_frame_rate_hz", |c| c.target_frame_rate_hz = f64::NAN),
             ("display_width", |c| c.display_width = 0),
@@ -483,6 +564,16 @@ mod tests {
         // Field count check: Debug prints one `name: value` per field.
         let fields = format!("{:?}", EngineConfig::default()).matches(": ").count();
         assert_eq!(fields, KNOBS.len());
+    }
+
+    #[test]
+    fn address_mappings_are_checked_as_dramsim3_reads_them() {
+        for ok in ["rochrababgco", "robabgrachco", "chrabgbaroco", "rorabgbachco"] {
+            assert_eq!(check_address_mapping(ok), Ok(()), "{ok}");
+        }
+        for bad in ["", "rochrababg", "rorochbabgco", "rochrababgcx", "rochrababgcoco", "ROCHRABABGCO"] {
+            assert!(check_address_mapping(bad).unwrap_err().starts_with("dram_address_mapping = "), "{bad}");
+        }
     }
 
     #[test]

@@ -63,7 +63,7 @@ use crate::config::EngineConfig;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
 use crate::hw_reference::abuffer_params;
-use crate::mem::{Dram, MemPort, MemoryLayout, Region, Tag};
+use crate::mem::{Dram, DramBackendFactory, MemPort, MemoryLayout, Region, Tag};
 use crate::schedule::{Schedule, fill_first_lines, release_order};
 use crate::timeline::{Occupancy, RequestSpan, Timeline};
 use crate::traversal::{line_ring, warp_lines};
@@ -118,6 +118,8 @@ pub struct Engine {
     record: bool,
     record_requests: bool,
     skip: bool,
+    /// The DRAM backend of `dram_backend` other than `ideal`, one per frame.
+    backend: Option<DramBackendFactory>,
 }
 
 impl Engine {
@@ -126,6 +128,27 @@ impl Engine {
     /// # Errors
     /// The configuration's validation message.
     pub fn new(cfg: EngineConfig) -> Result<Engine, String> {
+        if cfg.dram_backend != "ideal" {
+            return Err(format!(
+                "dram_backend = \"{}\": not part of the cycle model; the `postwarp` crate provides it \
+                 (Engine::with_dram_backend)",
+                cfg.dram_backend
+            ));
+        }
+        Engine::make(cfg, None)
+    }
+
+    /// An engine whose DRAM channel is timed by a backend `factory` makes
+    /// afresh for every frame (`mem::backend`; the backend named by
+    /// `dram_backend`, e.g. DRAMsim3 in the `postwarp` crate).
+    ///
+    /// # Errors
+    /// The configuration's validation message.
+    pub fn with_dram_backend(cfg: EngineConfig, factory: DramBackendFactory) -> Result<Engine, String> {
+        Engine::make(cfg, Some(factory))
+    }
+
+    fn make(cfg: EngineConfig, backend: Option<DramBackendFactory>) -> Result<Engine, String> {
         cfg.validate()?;
         if cfg.tile_size % cfg.supersample != 0 {
             return Err(format!(
@@ -133,7 +156,7 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
-        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, record_requests: false, skip: true })
+        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, record_requests: false, skip: true, backend })
     }
 
     /// Record a [`Timeline`] of every frame from now on (or stop). Values
@@ -176,7 +199,10 @@ impl Engine {
         let mut m = Machine {
             cfg,
             skip: self.skip,
-            dram: Dram::new(cfg.dram()),
+            dram: match &self.backend {
+                None => Dram::new(cfg.dram()),
+                Some(make) => Dram::with_backend(cfg.dram(), make()),
+            },
             now: Cycle::ZERO,
             port: MemPort::default(),
             cache: DestCache::new(cfg.dest_cache_bytes, cfg.tile_size, dw, dh),
@@ -211,6 +237,7 @@ impl Engine {
         stats.cycles = m.now.get();
         stats.units = m.units;
         stats.dram = m.dram.counters().clone();
+        stats.dram_backend = m.dram.backend_counters();
         stats.dest_cache = m.cache.tags().counters.clone();
         stats.fragments_per_pixel = m.ab.fragments_per_pixel.clone();
         stats.forced_merges = m.ab.forced_merges;
@@ -323,6 +350,11 @@ impl Machine<'_> {
             // refused (the DRAM is full: else the next cycle is an event).
             self.dram.skip_to(self.now + (span - 1), !self.port.is_empty());
         }
+        // The memory port's queues as this cycle left them, for the
+        // cycles its state lasts.
+        let queued = self.port.queued() as u64;
+        self.stats.port_queued_request_cycles += queued * span;
+        self.stats.port_peak_queued = self.stats.port_peak_queued.max(queued);
         self.now += span;
         self.dram.tick(self.now);
         span

@@ -18,6 +18,7 @@
 //!
 //! Not modelled: nothing (plain data).
 
+use crate::mem::backend::BackendCounters;
 use crate::mem::dram::DramCounters;
 use crate::stats::StatDef;
 use crate::units::StallReason;
@@ -39,6 +40,14 @@ pub struct FrameStats {
     pub cycles: u64,
     /// DRAM counters (bytes per client, requests, latency).
     pub dram: DramCounters,
+    /// The DRAM backend's own counters (`mem::backend`; 0 for `ideal`).
+    pub dram_backend: BackendCounters,
+    /// Requests waiting in the memory port's queues at the end of each
+    /// cycle, summed over the cycles (request-cycles).
+    pub port_queued_request_cycles: u64,
+    /// Most requests waiting in the memory port's queues at the end of a
+    /// cycle (requests).
+    pub port_peak_queued: u64,
     /// Destination tile cache counters.
     pub dest_cache: TileCacheCounters,
     /// Source cache counters, over all warps.
@@ -134,6 +143,55 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("dram.refused_cycles", "cycles", "cycles in which at least one DRAM request was refused"),
     StatDef::counter("dram.outstanding_cycles", "cycles", "cycles with at least one DRAM request outstanding"),
     StatDef::histogram("dram.latency.<cycles>", "cycles", "requests by cycles from acceptance to completion"),
+    StatDef::counter(
+        "dram.outstanding_request_cycles",
+        "request-cycles",
+        "DRAM requests outstanding, summed over cycles (mean occupancy = this / cycles)",
+    ),
+    StatDef::counter("dram.peak_outstanding", "requests", "most DRAM requests outstanding at once"),
+    StatDef::histogram(
+        "dram.read_latency.<cycles>",
+        "cycles",
+        "read requests by cycles from acceptance to completion (writes: dram.latency minus this)",
+    ),
+    StatDef::counter("dram.backend.dram_cycles", "DRAM cycles", "DRAM clock cycles the backend simulated (0: ideal)"),
+    StatDef::counter(
+        "dram.backend.peak_bytes",
+        "bytes",
+        "bytes the backend's DRAM data bus could have moved in those cycles, every channel (0: ideal)",
+    ),
+    StatDef::counter(
+        "dram.backend.read_transactions",
+        "transactions",
+        "read transactions handed to the DRAM simulator (0: ideal)",
+    ),
+    StatDef::counter(
+        "dram.backend.write_transactions",
+        "transactions",
+        "write transactions handed to the DRAM simulator (0: ideal)",
+    ),
+    StatDef::counter(
+        "dram.backend.transaction_bytes",
+        "bytes",
+        "bytes of those transactions at the simulator's transaction size (0: ideal)",
+    ),
+    StatDef::counter("dram.backend.row_hits", "transactions", "transactions to the row open in their bank (0: ideal)"),
+    StatDef::counter(
+        "dram.backend.row_misses",
+        "transactions",
+        "transactions to a bank with no row open yet (0: ideal)",
+    ),
+    StatDef::counter(
+        "dram.backend.row_conflicts",
+        "transactions",
+        "transactions to a bank with another row open (0: ideal)",
+    ),
+    StatDef::counter(
+        "port.queued_request_cycles",
+        "request-cycles",
+        "requests waiting in the memory port's queues at the end of each cycle, summed over cycles",
+    ),
+    StatDef::counter("port.peak_queued", "requests", "most requests waiting in the memory port's queues"),
     StatDef::counter("dest_cache.accesses", "accesses", "destination-tile look-ups, each counted once"),
     StatDef::counter("dest_cache.hits", "accesses", "look-ups that found the tile resident"),
     StatDef::counter(
@@ -267,6 +325,22 @@ impl FrameStats {
         for (value, n) in d.latency.bins() {
             put(format!("dram.latency.{value}"), n);
         }
+        put("dram.outstanding_request_cycles".into(), d.outstanding_request_cycles);
+        put("dram.peak_outstanding".into(), d.peak_outstanding);
+        for (value, n) in d.read_latency.bins() {
+            put(format!("dram.read_latency.{value}"), n);
+        }
+        let b = &self.dram_backend;
+        put("dram.backend.dram_cycles".into(), b.dram_cycles);
+        put("dram.backend.peak_bytes".into(), b.peak_bytes);
+        put("dram.backend.read_transactions".into(), b.read_transactions);
+        put("dram.backend.write_transactions".into(), b.write_transactions);
+        put("dram.backend.transaction_bytes".into(), b.transaction_bytes);
+        put("dram.backend.row_hits".into(), b.row_hits);
+        put("dram.backend.row_misses".into(), b.row_misses);
+        put("dram.backend.row_conflicts".into(), b.row_conflicts);
+        put("port.queued_request_cycles".into(), self.port_queued_request_cycles);
+        put("port.peak_queued".into(), self.port_peak_queued);
         let c = &self.dest_cache;
         put("dest_cache.accesses".into(), c.accesses);
         put("dest_cache.hits".into(), c.hits);

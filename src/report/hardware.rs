@@ -14,6 +14,7 @@
 //!
 //! `N` is `u64` in a frame and in `total`, `f64` in `mean`.
 
+use super::dram::{DramBackendCounters, DramRates};
 use super::keys::{KeyDoc, Reduce, Shape, nested, scalar};
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{FrameStats, UNITS};
@@ -188,6 +189,36 @@ pub struct HwCounters<N> {
     /// `--dram-trace` (transactions). Absent from older reports (0).
     #[serde(default)]
     pub dram_transactions: N,
+    /// Bytes asked for before burst rounding (bytes).
+    #[serde(default)]
+    pub dram_requested_bytes: N,
+    /// Cycles with a refused DRAM request (cycles).
+    #[serde(default)]
+    pub dram_refused_cycles: N,
+    /// Cycles with a DRAM request outstanding (cycles).
+    #[serde(default)]
+    pub dram_outstanding_cycles: N,
+    /// DRAM requests outstanding, summed over cycles (request-cycles).
+    #[serde(default)]
+    pub dram_outstanding_request_cycles: N,
+    /// Most DRAM requests outstanding at once (requests).
+    #[serde(default)]
+    pub dram_peak_outstanding: N,
+    /// Memory-port requests waiting, summed over cycles (request-cycles).
+    #[serde(default)]
+    pub port_queued_request_cycles: N,
+    /// Most memory-port requests waiting (requests).
+    #[serde(default)]
+    pub port_peak_queued: N,
+    /// Read requests by latency `"cycles"` (requests).
+    #[serde(default)]
+    pub dram_read_latency: BTreeMap<String, N>,
+    /// Write requests by latency `"cycles"` (requests).
+    #[serde(default)]
+    pub dram_write_latency: BTreeMap<String, N>,
+    /// The DRAM backend's own counters (0 for `ideal`).
+    #[serde(default)]
+    pub dram_backend: DramBackendCounters<N>,
     /// Destination tile cache.
     pub dest_cache: DestCache<N>,
     /// Source cache.
@@ -309,6 +340,16 @@ impl HwCounters<u64> {
             }),
             dram_requests: s.dram.requests,
             dram_transactions: (s.dram.bytes_read + s.dram.bytes_written) / burst_bytes,
+            dram_requested_bytes: s.dram.requested_bytes,
+            dram_refused_cycles: s.dram.refused_cycles,
+            dram_outstanding_cycles: s.dram.outstanding_cycles,
+            dram_outstanding_request_cycles: s.dram.outstanding_request_cycles,
+            dram_peak_outstanding: s.dram.peak_outstanding,
+            port_queued_request_cycles: s.port_queued_request_cycles,
+            port_peak_queued: s.port_peak_queued,
+            dram_read_latency: super::dram::histogram_map(&s.dram.read_latency),
+            dram_write_latency: super::dram::writes_of(&s.dram.latency, &s.dram.read_latency),
+            dram_backend: DramBackendCounters::of(&s.dram_backend),
             dest_cache: DestCache {
                 accesses: d.accesses,
                 hits: d.hits,
@@ -411,6 +452,9 @@ pub struct HwRates {
     /// Display pixels the fallback pass filled over display pixels: the
     /// never-seen share, apart from holes inside the image (fraction).
     pub unseen_fraction: Option<f64>,
+    /// The DRAM rates (`super::dram`).
+    #[serde(flatten)]
+    pub dram: DramRates,
 }
 
 fn ratio(a: f64, b: f64) -> Option<f64> {
@@ -465,6 +509,7 @@ impl HwRates {
                 }
             }),
             unseen_fraction: ratio(c.fallback.unseen_pixels, c.display_pixels),
+            dram: DramRates::of(c, cfg),
         }
     }
 }
@@ -683,6 +728,10 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             "DRAM bursts moved, reads and writes: `(dram_read_bytes + dram_write_bytes) / dram_burst_bytes`, one line or \
              packet each in a `--dram-trace` (docs/memory-layout.md), the count its replay reproduces",
         ),
+    ]
+    .into_iter()
+    .chain(super::dram::counter_keys())
+    .chain([
         nested("dest_cache", Reduce::Sum, dest_cache_keys, "destination tile cache counters"),
         nested("source_cache", Reduce::Sum, source_cache_keys, "source (reference) cache counters"),
         list(
@@ -808,7 +857,8 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             units_keys,
             "per unit (`engine::UNITS`), `{busy, stall, idle}` cycles (the three sum to `cycles`) and `stall_by_reason`",
         ),
-    ]
+    ])
+    .collect()
 }
 
 fn by_client_gbps_keys() -> Vec<KeyDoc> {
@@ -882,6 +932,9 @@ pub fn rate_keys() -> Vec<KeyDoc> {
              passes (a border strip), apart from the holes inside the image (`null` without pixels)",
         ),
     ]
+    .into_iter()
+    .chain(super::dram::rate_keys())
+    .collect()
 }
 
 fn by_client_bytes_per_pixel_keys() -> Vec<KeyDoc> {
@@ -915,6 +968,12 @@ mod tests {
             bytes_per_display_pixel: Some(ByClient::default()),
             floor_bytes_per_display_pixel: Some(ByClient::default()),
             unseen_fraction: Some(0.0),
+            dram: DramRates {
+                dram_utilisation_by_client: Some(ByClient::default()),
+                dram_read_latency_cycles: Some(Default::default()),
+                dram_write_latency_cycles: Some(Default::default()),
+                ..DramRates::default()
+            },
             ..HwRates::default()
         };
         same_keys(&serde_json::to_value(rates).unwrap(), &rate_keys(), "rates");

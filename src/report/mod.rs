@@ -39,6 +39,7 @@
 
 pub mod csv;
 pub mod docs;
+pub mod dram;
 pub mod dram_trace;
 pub mod golden;
 pub mod hardware;

@@ -16,6 +16,7 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
     let u32v = || int().and_then(|n| u32::try_from(n).map_err(|_| "expected an integer below 2^32"));
     let real = || v.as_float().or_else(|| v.as_integer().map(|n| n as f64)).ok_or("expected a number");
     let boolean = || v.as_bool().ok_or("expected true or false");
+    let text = || v.as_str().map(str::to_string).ok_or("expected a string in quotes");
     match key {
         "supersample" => c.supersample = u32v()?,
         "abuffer_fragments" => c.abuffer_fragments = u32v()?,
@@ -30,6 +31,9 @@ pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), Strin
         "dram_latency_cycles" => c.dram_latency_cycles = int()?,
         "dram_burst_bytes" => c.dram_burst_bytes = int()?,
         "dram_max_outstanding" => c.dram_max_outstanding = u32v()?,
+        "dram_backend" => c.dram_backend = text()?,
+        "dram_config" => c.dram_config = text()?,
+        "dram_address_mapping" => c.dram_address_mapping = text()?,
         "clock_hz" => c.clock_hz = int()?,
         "target_frame_rate_hz" => c.target_frame_rate_hz = real()?,
         "display_width" => c.display_width = u32v()?,
@@ -65,6 +69,7 @@ pub fn load(config: Option<&Path>, preset: Option<&str>) -> anyhow::Result<Engin
         }
     };
     cfg.validate().map_err(|e| anyhow!("hardware configuration: {e}"))?;
+    crate::dram::check(&cfg).map_err(|e| anyhow!("hardware configuration: {e}"))?;
     Ok(cfg)
 }
 
@@ -72,6 +77,7 @@ pub fn load(config: Option<&Path>, preset: Option<&str>) -> anyhow::Result<Engin
 pub fn from_text(text: &str, path: &Path) -> anyhow::Result<EngineConfig> {
     let cfg = parse(text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     cfg.validate().map_err(|e| anyhow!("{}: hardware configuration: {e}", path.display()))?;
+    crate::dram::check(&cfg).map_err(|e| anyhow!("{}: hardware configuration: {e}", path.display()))?;
     Ok(cfg)
 }
 
@@ -114,6 +120,9 @@ pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
         "dram_latency_cycles" => i(c.dram_latency_cycles),
         "dram_burst_bytes" => i(c.dram_burst_bytes),
         "dram_max_outstanding" => i(c.dram_max_outstanding.into()),
+        "dram_backend" => V::String(c.dram_backend.clone()),
+        "dram_config" => V::String(c.dram_config.clone()),
+        "dram_address_mapping" => V::String(c.dram_address_mapping.clone()),
         "clock_hz" => i(c.clock_hz),
         "target_frame_rate_hz" => V::Float(c.target_frame_rate_hz),
         "display_width" => i(c.display_width.into()),
@@ -141,6 +150,7 @@ fn json_of(v: &toml::Value) -> serde_json::Value {
         toml::Value::Integer(n) => serde_json::Value::from(*n),
         toml::Value::Float(x) => serde_json::Value::from(*x),
         toml::Value::Boolean(b) => serde_json::Value::Bool(*b),
+        toml::Value::String(t) => serde_json::Value::String(t.clone()),
         other => serde_json::Value::String(other.to_string()),
     }
 }
@@ -169,7 +179,8 @@ pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::
             }
             serde_json::Value::Number(n) => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
             serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
-            other => bail!("{k}: {other} is not a number or a boolean"),
+            serde_json::Value::String(t) => toml::Value::String(t.clone()),
+            other => bail!("{k}: {other} is not a number, a boolean or a string"),
         };
         set(&mut c, current_knob_name(k), &t).map_err(|e| anyhow!("{k}: {e}"))?;
     }
@@ -220,7 +231,11 @@ mod tests {
     fn every_knob_is_settable_and_reported() {
         let mut c = EngineConfig::default();
         for (name, unit, _) in KNOBS {
-            let v = if *unit == "bool" { toml::Value::Boolean(false) } else { toml::Value::Integer(1) };
+            let v = match *unit {
+                "bool" => toml::Value::Boolean(false),
+                "ideal|dramsim3" | "name|path" | "text" => toml::Value::String("x".into()),
+                _ => toml::Value::Integer(1),
+            };
             set(&mut c, name, &v).unwrap_or_else(|e| panic!("{name}: {e}"));
         }
         assert!(!c.fallback_fill);
@@ -230,6 +245,28 @@ mod tests {
         assert_eq!(j["dest_cache_bytes"], 1_048_576);
         assert_eq!(j["threshold"], 1.4);
         assert_eq!(j["target_frame_rate_hz"], 30.0);
+        assert_eq!(j["dram_backend"], "ideal");
+        assert_eq!(set(&mut c, "dram_backend", &toml::Value::Integer(1)), Err("expected a string in quotes".into()));
+    }
+
+    #[test]
+    fn string_knobs_read_and_round_trip() {
+        let c = parse(
+            "dram_backend = \"ideal\"\ndram_config = \"DDR4_8Gb_x8_3200\"\ndram_address_mapping = \"robabgrachco\"\n",
+        )
+        .unwrap();
+        assert_eq!((c.dram_config.as_str(), c.dram_address_mapping.as_str()), ("DDR4_8Gb_x8_3200", "robabgrachco"));
+        assert_eq!(from_json_map(&to_json_map(&c)).unwrap(), c);
+        assert_eq!(parse(&dump(&c, "x")).unwrap(), c);
+        let e = from_text("dram_backend = \"ramulator\"", Path::new("h.toml")).unwrap_err().to_string();
+        assert!(e.contains("h.toml") && e.contains("dram_backend = \"ramulator\""), "{e}");
+        let e = from_text("dram_backend = \"dramsim3\"\ndram_config = \"DDR9\"", Path::new("h.toml"));
+        let e = e.unwrap_err().to_string();
+        if crate::dram::HAS_DRAMSIM3 {
+            assert!(e.contains("dram_config = \"DDR9\""), "{e}");
+        } else {
+            assert!(e.contains("--features dramsim3"), "{e}");
+        }
     }
 
     #[test]

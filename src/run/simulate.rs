@@ -43,7 +43,7 @@ use crate::trace::Trace;
 use anyhow::Context;
 use bitvec::vec::BitVec;
 use postwarp_rtl::config::EngineConfig;
-use postwarp_rtl::engine::{Engine, FrameOutput, HwReference};
+use postwarp_rtl::engine::{FrameOutput, HwReference};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
@@ -100,7 +100,7 @@ fn measure(
     let ss = trace.display.supersample;
     let from_trace = cfg.supersample != ss;
     cfg.supersample = ss;
-    let mut engine = Engine::new(cfg.clone()).map_err(|e| anyhow::anyhow!("hardware configuration: {e}"))?;
+    let mut engine = crate::dram::engine(cfg.clone()).map_err(|e| anyhow::anyhow!("hardware configuration: {e}"))?;
     engine.record_timeline(timeline.is_some() && out.is_some());
     engine.record_requests(dram_trace.is_some());
     let gcfg = golden_config_for(&cfg);

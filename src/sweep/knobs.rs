@@ -122,14 +122,15 @@ pub fn hardware_config(
     }
     c.supersample = supersample;
     c.validate()?;
+    crate::dram::check(&c)?;
     Ok(c)
 }
 
 /// The `results.csv` column of a knob: its name, with its unit appended
 /// unless the name already says it or the knob has none (`1`, `bool`,
-/// a choice `a|b`).
+/// `text`, a choice `a|b`).
 pub fn column(knob: &str, unit: &str) -> String {
-    if unit == "1" || unit == "bool" || unit.contains('|') {
+    if unit == "1" || unit == "bool" || unit == "text" || unit.contains('|') {
         return knob.to_string();
     }
     let slug = unit.to_lowercase().replace("1/z", "inv_z").replace('/', "_per_").replace(' ', "_");
@@ -179,6 +180,8 @@ mod tests {
         assert_eq!(c("transform_latency", "cycles"), "transform_latency_cycles");
         assert_eq!(c("over_limit", "clip|allow"), "over_limit");
         assert_eq!(c("slope_tol", "1"), "slope_tol");
+        assert_eq!(c("dram_backend", "ideal|dramsim3"), "dram_backend");
+        assert_eq!(c("dram_address_mapping", "text"), "dram_address_mapping");
         // Every knob gets a distinct column.
         let mut all: Vec<String> = golden_keys().map(|k| column(k, golden_unit(k))).collect();
         all.extend(hardware_keys().map(|k| column(k, hardware_unit(k))));

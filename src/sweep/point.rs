@@ -151,6 +151,14 @@ pub struct Metrics {
     /// Mean pixels of that mask per frame (pixels).
     #[serde(default)]
     pub common_pixels_per_frame: Option<f64>,
+    /// DRAM bytes over the frames' time at the clock, hardware (GB/s):
+    /// the bandwidth the memory delivered (`dram_achieved_gbps`).
+    #[serde(default)]
+    pub dram_achieved_gbps: Option<f64>,
+    /// Row hits over DRAMsim3 transactions, hardware with `dram_backend =
+    /// "dramsim3"` (fraction; empty for `ideal`).
+    #[serde(default)]
+    pub dram_row_hit_rate: Option<f64>,
 }
 
 /// (column, unit, description, deterministic) of every metric in
@@ -196,6 +204,13 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
         "mean pixels per frame of the point's common mask (compare points over equal counts)",
         true,
     ),
+    (
+        "dram_achieved_gbps",
+        "GB/s",
+        "DRAM bytes over the frames' time at clock_hz: the bandwidth the memory delivered (hardware)",
+        true,
+    ),
+    ("dram_row_hit_rate", "fraction", "row hits / DRAMsim3 transactions (hardware, dram_backend = dramsim3)", true),
 ];
 
 fn finite(x: f64) -> Option<f64> {
@@ -246,6 +261,8 @@ impl Metrics {
             ssim_luma_common: q.and_then(|q| q.ssim_luma_common),
             flip_mean_common: q.and_then(|q| q.flip_mean_common),
             common_pixels_per_frame: m.vs_truth.as_ref().and_then(|t| t.pixels.common_pixels),
+            dram_achieved_gbps: m.rates.dram.dram_achieved_gbps,
+            dram_row_hit_rate: m.rates.dram.dram_row_hit_rate,
             ..Metrics::default()
         }
     }

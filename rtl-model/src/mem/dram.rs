@@ -1,9 +1,16 @@
 //! DRAM: one shared, bandwidth- and latency-limited off-chip memory channel.
 //!
 //! Job: accept read and write requests from the warper's memory clients,
-//! return each one after a fixed latency plus its transfer time on a shared
-//! data bus, and count bytes per client (DRAMsim3's
-//! `WillAccept`/`Add`/`ClockTick` protocol).
+//! return each one when its backend says it is done (by default after a
+//! fixed latency plus its transfer time on a shared data bus), and count
+//! bytes per client (DRAMsim3's `WillAccept`/`Add`/`ClockTick` protocol).
+//!
+//! Backends (`mem::backend`): the timing below is the `ideal` backend's
+//! ([`Dram::new`]); [`Dram::with_backend`] puts any [`DramBackend`] (e.g.
+//! DRAMsim3, `src/dram/` of the `postwarp` crate) behind the same channel.
+//! The channel rules (one command port, `max_outstanding`, burst rounding
+//! of the counted bytes, the counters) hold for every backend; an external
+//! backend may complete requests out of acceptance order.
 //!
 //! API ([`Dram`]): `new(DramConfig)`; each cycle the engine calls
 //! `tick(now)` first, then clients call `will_accept(now)`,
@@ -49,9 +56,12 @@
 //! Stats (units in [`DRAM_STATS`]): bytes read and written, in total and per
 //! [`Client`], counted when a request is accepted; requests; bytes requested
 //! before burst rounding; cycles with a refused request (counted once per
-//! cycle); cycles with at least one request outstanding; a histogram of
-//! per-request latency from acceptance to completion. Bandwidth utilisation
-//! and rounding overhead are ratios of these and are derived by reports.
+//! cycle); cycles with at least one request outstanding; the sum over
+//! cycles of the requests outstanding, and their most at once; a histogram
+//! of per-request latency from acceptance to completion, and the same for
+//! reads alone. The backend's own counters: [`Dram::backend_counters`].
+//! Bandwidth utilisation, mean occupancy and rounding overhead are ratios
+//! of these and are derived by reports.
 //!
 //! Not modelled: banks, rows and row-buffer hits, refresh, read/write
 //! turnaround, command scheduling or reordering, multiple channels, error
@@ -60,6 +70,7 @@
 
 use std::collections::VecDeque;
 
+use super::backend::{BackendCounters, DramBackend, IdealBackend, NextEvent};
 use crate::clock::Cycle;
 use crate::stats::{Histogram, StatDef, Stats};
 use crate::timeline::RequestSpan;
@@ -183,6 +194,13 @@ pub const DRAM_STATS: &[StatDef] = &[
     StatDef::counter("dram.refused_cycles", "cycles", "cycles in which at least one request was refused"),
     StatDef::counter("dram.outstanding_cycles", "cycles", "cycles with at least one request outstanding"),
     StatDef::histogram("dram.latency", "cycles", "per request: cycles from acceptance to completion"),
+    StatDef::counter(
+        "dram.outstanding_request_cycles",
+        "request-cycles",
+        "requests outstanding, summed over cycles (mean occupancy = this / cycles)",
+    ),
+    StatDef::counter("dram.peak_outstanding", "requests", "most requests outstanding at once"),
+    StatDef::histogram("dram.read_latency", "cycles", "per read request: cycles from acceptance to completion"),
 ];
 
 /// Raw event counts of a [`Dram`] since it was made (or last reset).
@@ -206,23 +224,74 @@ pub struct DramCounters {
     pub outstanding_cycles: u64,
     /// Acceptance-to-completion latency per request (cycles).
     pub latency: Histogram,
+    /// Requests outstanding, summed over the cycles ticked (request-cycles).
+    pub outstanding_request_cycles: u64,
+    /// Most requests outstanding at once (requests).
+    pub peak_outstanding: u64,
+    /// Acceptance-to-completion latency per read request (cycles); writes
+    /// are `latency` minus this, bin by bin.
+    pub read_latency: Histogram,
 }
 
 #[derive(Clone, Copy, Debug)]
 struct InFlight<T> {
-    done: Cycle,
     tag: T,
     client: Client,
+    /// For latency recorded at completion (a backend that did not know the
+    /// completion cycle at acceptance): when it was accepted, whether it
+    /// reads, and its span's index when recording (else `usize::MAX`).
+    accepted: Cycle,
+    read: bool,
+    late: bool,
+    span: usize,
+}
+
+/// The timing behind the channel: the ideal model inline (no dynamic
+/// dispatch on the hot path), or any other backend.
+enum Backend {
+    Ideal(IdealBackend),
+    Other(Box<dyn DramBackend>),
+}
+
+impl Backend {
+    #[inline]
+    fn get(&self) -> &dyn DramBackend {
+        match self {
+            Backend::Ideal(b) => b,
+            Backend::Other(b) => b.as_ref(),
+        }
+    }
+
+    #[inline]
+    fn get_mut(&mut self) -> &mut dyn DramBackend {
+        match self {
+            Backend::Ideal(b) => b,
+            Backend::Other(b) => b.as_mut(),
+        }
+    }
+}
+
+impl std::fmt::Debug for Backend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Backend({})", self.get().name())
+    }
 }
 
 /// The DRAM model. See the module documentation for the timing rules.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct Dram<T = u64> {
     cfg: DramConfig,
-    in_flight: VecDeque<InFlight<T>>,
-    /// First free byte slot of the bus: cycle c carries the slots
-    /// `[c * peak, (c + 1) * peak)`.
-    bus_free_slot: u64,
+    backend: Backend,
+    /// Requests accepted and not yet returned, by id: slot `i` holds id
+    /// `first_id + i` (`None` once returned out of order).
+    in_flight: VecDeque<Option<InFlight<T>>>,
+    /// The id of `in_flight`'s first slot.
+    first_id: u64,
+    /// Requests in `in_flight` not yet returned.
+    outstanding: usize,
+    /// A finished request the backend returned, not yet handed out
+    /// (`completed` peeks one ahead to answer `next_completion`).
+    ready: Option<(u64, Cycle)>,
     last_accept: Option<Cycle>,
     last_refused: Option<Cycle>,
     now: Option<Cycle>,
@@ -232,16 +301,32 @@ pub struct Dram<T = u64> {
 }
 
 impl<T: Copy> Dram<T> {
-    /// A DRAM with knobs `cfg`, idle.
+    /// A DRAM with knobs `cfg` and the ideal backend, idle.
     ///
     /// # Panics
     /// If `cfg` does not validate.
     pub fn new(cfg: DramConfig) -> Dram<T> {
+        Dram::with(cfg, Backend::Ideal(IdealBackend::new(cfg)))
+    }
+
+    /// A DRAM with knobs `cfg` (the channel's: port, `max_outstanding`,
+    /// burst rounding of the counters) timed by `backend`, idle.
+    ///
+    /// # Panics
+    /// If `cfg` does not validate.
+    pub fn with_backend(cfg: DramConfig, backend: Box<dyn DramBackend>) -> Dram<T> {
+        Dram::with(cfg, Backend::Other(backend))
+    }
+
+    fn with(cfg: DramConfig, backend: Backend) -> Dram<T> {
         cfg.validate().unwrap_or_else(|e| panic!("invalid DRAM configuration: {e}"));
         Dram {
             cfg,
+            backend,
             in_flight: VecDeque::with_capacity(cfg.max_outstanding),
-            bus_free_slot: 0,
+            first_id: 0,
+            outstanding: 0,
+            ready: None,
             last_accept: None,
             last_refused: None,
             now: None,
@@ -265,8 +350,10 @@ impl<T: Copy> Dram<T> {
             self.now
         );
         self.now = Some(now);
-        if !self.in_flight.is_empty() {
+        self.backend.get_mut().tick(now);
+        if self.outstanding > 0 {
             self.counters.outstanding_cycles += 1;
+            self.counters.outstanding_request_cycles += self.outstanding as u64;
         }
     }
 
@@ -280,8 +367,10 @@ impl<T: Copy> Dram<T> {
         debug_assert!(now > prev, "skip_to({now}) from {prev}");
         debug_assert!(self.next_completion().is_none_or(|c| c >= now), "a completion would be skipped");
         debug_assert!(!refusing || !self.has_room(), "a request refused with room");
-        if !self.in_flight.is_empty() {
+        self.backend.get_mut().skip_to(now);
+        if self.outstanding > 0 {
             self.counters.outstanding_cycles += now - prev;
+            self.counters.outstanding_request_cycles += self.outstanding as u64 * (now - prev);
         }
         if refusing {
             self.counters.refused_cycles += now - prev;
@@ -290,24 +379,39 @@ impl<T: Copy> Dram<T> {
         self.now = Some(now);
     }
 
-    /// The cycle from which the oldest outstanding request completes.
+    /// The cycle from which the next outstanding request completes: with
+    /// the ideal backend the oldest one's; with a backend that cannot say
+    /// ([`NextEvent::EveryCycle`]) the next cycle, so that no cycle is
+    /// skipped while it works.
     #[inline]
     pub fn next_completion(&self) -> Option<Cycle> {
-        self.in_flight.front().map(|f| f.done)
+        if let Some((_, done)) = self.ready {
+            return Some(done);
+        }
+        match self.backend.get().next_event() {
+            NextEvent::Idle => None,
+            NextEvent::At(t) => Some(t),
+            NextEvent::EveryCycle => Some(self.now.map_or(Cycle(1), Cycle::next)),
+        }
     }
 
     /// True if fewer than `max_outstanding` requests are outstanding (a
     /// request in a later cycle would be accepted).
     #[inline]
     pub fn has_room(&self) -> bool {
-        self.in_flight.len() < self.cfg.max_outstanding
+        self.outstanding < self.cfg.max_outstanding
     }
 
     /// True if a request at `now` would be accepted.
     #[inline]
     pub fn will_accept(&self, now: Cycle) -> bool {
         self.check_now(now);
-        self.last_accept != Some(now) && self.in_flight.len() < self.cfg.max_outstanding
+        self.last_accept != Some(now) && self.outstanding < self.cfg.max_outstanding
+    }
+
+    /// The `dram_backend` name of the timing behind the channel.
+    pub fn backend_name(&self) -> &'static str {
+        self.backend.get().name()
     }
 
     /// Ask for a transfer of `bytes` (more than 0) at `now`. On refusal the
@@ -333,14 +437,22 @@ impl<T: Copy> Dram<T> {
             }
             return Err(Request { client, access, addr, bytes, tag });
         }
-        let peak = self.cfg.peak_bytes_per_cycle;
         let rounded = self.cfg.rounded(bytes);
-        let start = self.bus_free_slot.max((now + self.cfg.latency_cycles).get() * peak);
-        let end = start + rounded;
-        let done = Cycle(end.div_ceil(peak));
-        self.bus_free_slot = end;
+        let id = self.first_id + self.in_flight.len() as u64;
+        let known = self.backend.get_mut().accept(now, id, access, addr, bytes);
         self.last_accept = Some(now);
-        self.in_flight.push_back(InFlight { done, tag, client });
+        let read = access == Access::Read;
+        let span = match (&mut self.spans, known) {
+            (Some(spans), None) => {
+                // Completed later: the span's end is filled in then.
+                spans.push(RequestSpan { client, access, addr, bytes: rounded, accepted: now, done: now });
+                spans.len() - 1
+            }
+            _ => usize::MAX,
+        };
+        self.in_flight.push_back(Some(InFlight { tag, client, accepted: now, read, late: known.is_none(), span }));
+        self.outstanding += 1;
+        self.counters.peak_outstanding = self.counters.peak_outstanding.max(self.outstanding as u64);
 
         let c = &mut self.counters;
         c.requests += 1;
@@ -355,9 +467,14 @@ impl<T: Copy> Dram<T> {
                 c.client_bytes_written[client.index()] += rounded;
             }
         }
-        c.latency.record(done - now);
-        if let Some(spans) = &mut self.spans {
-            spans.push(RequestSpan { client, access, addr, bytes: rounded, accepted: now, done });
+        if let Some(done) = known {
+            c.latency.record(done - now);
+            if read {
+                c.read_latency.record(done - now);
+            }
+            if let Some(spans) = &mut self.spans {
+                spans.push(RequestSpan { client, access, addr, bytes: rounded, accepted: now, done });
+            }
         }
         Ok(())
     }
@@ -377,18 +494,44 @@ impl<T: Copy> Dram<T> {
     #[inline]
     pub fn completed(&mut self, now: Cycle) -> Option<(T, Client)> {
         self.check_now(now);
-        let head = self.in_flight.front()?;
-        if head.done > now {
+        let (id, done) = match self.ready.take() {
+            Some(r) => r,
+            None => self.backend.get_mut().pop_done(now)?,
+        };
+        if done > now {
+            self.ready = Some((id, done));
             return None;
         }
-        let InFlight { tag, client, .. } = self.in_flight.pop_front()?;
-        Some((tag, client))
+        let slot = (id - self.first_id) as usize;
+        let f = self.in_flight[slot].take().expect("a backend returned a request twice");
+        while self.in_flight.front().is_some_and(Option::is_none) {
+            self.in_flight.pop_front();
+            self.first_id += 1;
+        }
+        self.outstanding -= 1;
+        if f.late {
+            self.completed_late(&f, done);
+        }
+        Some((f.tag, f.client))
+    }
+
+    /// The latency and span of a request whose completion the backend did
+    /// not know at acceptance.
+    #[cold]
+    fn completed_late(&mut self, f: &InFlight<T>, done: Cycle) {
+        self.counters.latency.record(done - f.accepted);
+        if f.read {
+            self.counters.read_latency.record(done - f.accepted);
+        }
+        if let Some(s) = self.spans.as_mut().and_then(|s| s.get_mut(f.span)) {
+            s.done = done;
+        }
     }
 
     /// Requests accepted and not yet returned by `completed`.
     #[inline]
     pub fn outstanding(&self) -> usize {
-        self.in_flight.len()
+        self.outstanding
     }
 
     /// Raw counts so far.
@@ -396,7 +539,13 @@ impl<T: Copy> Dram<T> {
         &self.counters
     }
 
+    /// The backend's own counts since it was made (0 for the ideal one).
+    pub fn backend_counters(&self) -> BackendCounters {
+        self.backend.get().counters()
+    }
+
     /// Zero the counts (e.g. at a frame boundary); requests in flight stay.
+    /// The backend's own counters are not reset.
     pub fn reset_counters(&mut self) {
         self.counters = DramCounters::default();
         self.last_refused = None;
@@ -424,7 +573,21 @@ impl<T: Copy> Dram<T> {
         for (v, n) in c.latency.bins() {
             s.record_n("dram.latency", v, n);
         }
+        s.add_count("dram.outstanding_request_cycles", c.outstanding_request_cycles);
+        s.add_count("dram.peak_outstanding", c.peak_outstanding);
+        for (v, n) in c.read_latency.bins() {
+            s.record_n("dram.read_latency", v, n);
+        }
         s
+    }
+
+    /// The ideal backend's first free bus slot (tests of the schedule).
+    #[cfg(test)]
+    fn bus_free_slot(&self) -> u64 {
+        match &self.backend {
+            Backend::Ideal(b) => b.bus_free_slot(),
+            Backend::Other(_) => 0,
+        }
     }
 
     fn check_now(&self, now: Cycle) {
@@ -435,6 +598,7 @@ impl<T: Copy> Dram<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::mem::backend::{BackendCounters, IdealBackend};
 
     const CFG: DramConfig =
         DramConfig { peak_bytes_per_cycle: 16, latency_cycles: 10, burst_bytes: 32, max_outstanding: 8 };
@@ -548,9 +712,9 @@ mod tests {
         for t in 0..200u64 {
             d.tick(Cycle(t));
             while d.completed(Cycle(t)).is_some() {}
-            let before = d.bus_free_slot;
+            let before = d.bus_free_slot();
             if d.request(Cycle(t), Client::ALL[(t % 4) as usize], Access::Read, 0, 1 + t % 20, t).is_ok() {
-                let end = d.bus_free_slot;
+                let end = d.bus_free_slot();
                 let start = end - cfg.rounded(1 + t % 20);
                 assert!(start >= before.max(prev_free));
                 for slot in start..end {
@@ -625,6 +789,111 @@ mod tests {
             assert!(e.starts_with(knob), "{e}");
         }
         assert_eq!(CFG.validate(), Ok(()));
+    }
+
+    /// Drive two channels with the same random-ish request stream, cycle
+    /// by cycle, and return what each handed back, per cycle.
+    fn same_stream(mut a: Dram, mut b: Dram, cycles: u64) -> (Vec<(u64, u64, Client)>, Dram, Dram) {
+        let mut out = vec![];
+        for t in 0..cycles {
+            let now = Cycle(t);
+            a.tick(now);
+            b.tick(now);
+            loop {
+                let (x, y) = (a.completed(now), b.completed(now));
+                assert_eq!(x, y, "cycle {t}");
+                let Some((tag, client)) = x else { break };
+                out.push((t, tag, client));
+            }
+            assert_eq!(a.next_completion(), b.next_completion(), "cycle {t}");
+            if t % 7 != 3 {
+                let client = Client::ALL[(t % 4) as usize];
+                let access = if t % 3 == 0 { Access::Write } else { Access::Read };
+                let bytes = 1 + (t * 37) % 200;
+                let (x, y) = (
+                    a.request(now, client, access, t * 64, bytes, t),
+                    b.request(now, client, access, t * 64, bytes, t),
+                );
+                assert_eq!(x, y, "cycle {t}");
+            }
+        }
+        (out, a, b)
+    }
+
+    #[test]
+    fn the_ideal_backend_through_the_trait_is_todays_model() {
+        for cfg in [CFG, DramConfig { peak_bytes_per_cycle: 5, latency_cycles: 0, burst_bytes: 4, max_outstanding: 2 }]
+        {
+            let inline: Dram = Dram::new(cfg);
+            let boxed: Dram = Dram::with_backend(cfg, Box::new(IdealBackend::new(cfg)));
+            let (out, a, b) = same_stream(inline, boxed, 600);
+            assert!(out.len() > 30, "{cfg:?}: {} completions", out.len());
+            assert_eq!(a.counters(), b.counters());
+            assert_eq!(format!("{:?}", a.stats()), format!("{:?}", b.stats()));
+            assert_eq!((a.backend_name(), b.backend_name()), ("ideal", "ideal"));
+            assert_eq!(a.backend_counters(), BackendCounters::default());
+        }
+    }
+
+    /// A backend that knows nothing at acceptance: each request completes
+    /// `10 + id % 5` cycles after it, so later ones can finish first.
+    struct Shuffled {
+        now: Cycle,
+        pending: Vec<(u64, Cycle)>,
+    }
+
+    impl DramBackend for Shuffled {
+        fn name(&self) -> &'static str {
+            "shuffled"
+        }
+        fn tick(&mut self, now: Cycle) {
+            self.now = now;
+        }
+        fn skip_to(&mut self, now: Cycle) {
+            self.now = now;
+        }
+        fn accept(&mut self, now: Cycle, id: u64, _: Access, _: u64, _: u64) -> Option<Cycle> {
+            self.pending.push((id, now + (10 + id % 5)));
+            None
+        }
+        fn pop_done(&mut self, now: Cycle) -> Option<(u64, Cycle)> {
+            let i = self.pending.iter().position(|&(_, d)| d <= now)?;
+            Some(self.pending.remove(i))
+        }
+        fn next_event(&self) -> NextEvent {
+            if self.pending.is_empty() { NextEvent::Idle } else { NextEvent::EveryCycle }
+        }
+    }
+
+    #[test]
+    fn an_external_backend_completes_out_of_order_and_is_counted_at_completion() {
+        let mut d: Dram = Dram::with_backend(CFG, Box::new(Shuffled { now: Cycle(0), pending: vec![] }));
+        d.record_requests();
+        d.tick(Cycle(0));
+        assert_eq!(d.next_completion(), None, "idle");
+        // Ids 0..4, accepted at cycles 0..4, finish at 10, 12, 14, 16, 18;
+        // id 5, accepted at 5, at 15: before ids 3 and 4.
+        let mut done = vec![];
+        for t in 0..40 {
+            if t > 0 {
+                d.tick(Cycle(t));
+            }
+            while let Some((tag, _)) = d.completed(Cycle(t)) {
+                done.push((t, tag));
+            }
+            if t < 6 {
+                d.request(Cycle(t), Client::TileFill, Access::Read, 0, 32, t).unwrap();
+                assert_eq!(d.next_completion(), Some(Cycle(t + 1)), "unknown: every cycle");
+            }
+        }
+        assert_eq!(done, [(10, 0), (12, 1), (14, 2), (15, 5), (16, 3), (18, 4)]);
+        assert_eq!(d.outstanding(), 0);
+        let c = d.counters();
+        assert_eq!(c.latency.bins().collect::<Vec<_>>(), [(10, 2), (11, 1), (12, 1), (13, 1), (14, 1)]);
+        assert_eq!(c.read_latency, c.latency);
+        assert_eq!(c.peak_outstanding, 6);
+        let spans = d.take_requests();
+        assert_eq!(spans.iter().map(|s| s.done.get()).collect::<Vec<_>>(), [10, 12, 14, 16, 18, 15]);
     }
 
     #[test]
