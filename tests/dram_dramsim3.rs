@@ -8,7 +8,12 @@
 //! Requests carry the memory map's addresses (`docs/memory-layout.md`), so
 //! row hits are a real outcome; against the `mark1998` ideal channel a
 //! DRAMsim3 part can be faster or slower (`docs/memory.md`), hence the
-//! perfect-memory bound.
+//! bounds: a perfect memory, and an ideal channel with the part's peak
+//! bandwidth and no latency, are never slower.
+//!
+//! And the `--dram-trace` file of the room trace, replayed open loop
+//! through DRAMsim3 the way its trace CPU does, returns exactly the
+//! transactions the report states (`dram_transactions`).
 #![cfg(feature = "dramsim3")]
 
 use serde_json::Value;
@@ -60,6 +65,9 @@ fn dramsim3_runs_the_room_trace_with_the_ideal_images_and_reports_its_dram() {
     let ds3_toml =
         "dram_backend = \"dramsim3\"\ndram_config = \"DDR4_8Gb_x8_3200\"\ndram_address_mapping = \"rochrababgco\"\n";
     let ds3 = simulate(d, "ds3", ds3_toml);
+    // DDR4-3200 x64: 25.4 GB/s = 254 bytes per 10 ns engine cycle; 255
+    // and no latency is at least as fast as the part.
+    let same_peak = simulate(d, "same-peak", "dram_peak_bytes_per_cycle = 255\ndram_latency_cycles = 0\n");
     assert_eq!(ds3["config"]["dram_backend"], "dramsim3");
     assert_eq!(ds3["config"]["dram_config"], "DDR4_8Gb_x8_3200");
     let images = pngs(&d.join("ideal"));
@@ -70,6 +78,8 @@ fn dramsim3_runs_the_room_trace_with_the_ideal_images_and_reports_its_dram() {
         assert_eq!(f["vs_golden"]["identical"], true, "frame {k}");
         let (c, p, i) = (num(f, "cycles"), num(&perfect["frames"][k], "cycles"), &ideal["frames"][k]);
         assert!(c >= p, "frame {k}: {c} cycles with DRAMsim3, fewer than a perfect memory's {p}");
+        let q = num(&same_peak["frames"][k], "cycles");
+        assert!(c >= q, "frame {k}: {c} cycles with DRAMsim3, fewer than an ideal channel at its peak's {q}");
         // Same requests and bytes whatever the timing.
         for key in ["dram_requests", "dram_read_bytes", "dram_write_bytes", "dram_requested_bytes"] {
             assert_eq!(f[key], i[key], "frame {k}: {key}");
@@ -136,4 +146,54 @@ fn bad_dramsim3_knobs_are_named_before_any_simulation() {
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success() && err.contains(want) && err.contains("bad.toml"), "{toml}: {err}");
     }
+}
+
+/// DRAMsim3's trace CPU (`src/cpu.cc`, `TraceBasedCPU::ClockTick`): a line
+/// `0xADDR READ|WRITE CYCLE` enters when the clock has reached its cycle
+/// and the memory accepts it; every transaction returns one callback.
+#[test]
+fn the_dramsim3_trace_of_the_room_trace_replays_to_the_reports_transactions() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let trace = d.join("room.trc");
+    let out = Command::new(env!("CARGO_BIN_EXE_postwarp"))
+        .args(["simulate", "traces/room", "--out"])
+        .arg(d.join("run"))
+        .arg("--dram-trace")
+        .arg(&trace)
+        .args(["--dram-trace-format", "dramsim3"])
+        .current_dir(root())
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("run").join("report.json")).unwrap()).unwrap();
+    let stated = num(&report["total"], "dram_transactions") as u64;
+    let lines: Vec<(u64, bool, u64)> = std::fs::read_to_string(&trace)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            assert_eq!(f.len(), 3, "{l}");
+            let addr = u64::from_str_radix(f[0].strip_prefix("0x").unwrap(), 16).unwrap();
+            (addr, f[1] == "WRITE", f[2].parse().unwrap())
+        })
+        .collect();
+    assert_eq!(lines.len() as u64, stated, "trace lines against the report");
+    let ini = root().join("configs/dram/DDR4_8Gb_x8_3200.ini");
+    let mut sys = dramsim3::MemorySystem::new(&ini, d).unwrap();
+    let (mut next, mut returned, mut clk) = (0usize, 0u64, 0u64);
+    let limit = lines.last().map_or(0, |l| l.2) + 10_000_000;
+    while (next < lines.len() || returned < next as u64) && clk < limit {
+        while let Some(&(addr, write, at)) = lines.get(next) {
+            if at > clk || !sys.can_add(addr, write) {
+                break;
+            }
+            assert!(sys.add(addr, write));
+            next += 1;
+        }
+        sys.tick(|_, _| returned += 1);
+        clk += 1;
+    }
+    assert_eq!((next as u64, returned), (stated, stated), "replayed and returned by DRAMsim3 after {clk} cycles");
 }
