@@ -37,6 +37,10 @@ fn simulate(dir: &Path, name: &str, toml: &str) -> Value {
         .output()
         .unwrap();
     assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    // The summary's utilisation is of the part's peak with DRAMsim3.
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let part = stdout.contains("of the DRAM part's peak");
+    assert_eq!(part, toml.contains("\"dramsim3\""), "{name}: {stdout}");
     serde_json::from_str(&std::fs::read_to_string(dir.join(name).join("report.json")).unwrap()).unwrap()
 }
 

@@ -277,7 +277,7 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
             c.dram_read_bytes as f64 / 1e6,
             c.dram_write_bytes as f64 / 1e6,
             f.rates.dram_gbps_at_target_rate,
-            opt(f.rates.dram_utilisation, 100.0),
+            opt(utilisation(&f.rates), 100.0),
             bytes_per_pixel(&f.rates),
             c.dest_cache.misses_compulsory,
             c.dest_cache.misses_capacity,
@@ -295,7 +295,7 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         m.counters.dram_read_bytes / 1e6,
         m.counters.dram_write_bytes / 1e6,
         m.rates.dram_gbps_at_target_rate,
-        opt(m.rates.dram_utilisation, 100.0),
+        opt(utilisation(&m.rates), 100.0),
         bytes_per_pixel(&m.rates),
         m.counters.dest_cache.misses_compulsory,
         m.counters.dest_cache.misses_capacity,
@@ -306,8 +306,18 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
     for (i, (name, gbps)) in m.rates.dram_gbps_by_client.iter().into_iter().enumerate() {
         let _ = write!(s, "{} {name} {gbps:.3}", if i == 0 { "" } else { " +" });
     }
-    let _ =
-        writeln!(s, "; utilisation {:.2} % of the peak over the frame's cycles", opt(m.rates.dram_utilisation, 100.0));
+    // With DRAMsim3 the part's own peak, not the ideal channel's knob.
+    match m.rates.dram.dram_backend_utilisation {
+        Some(u) => writeln!(s, "; utilisation {:.2} % of the DRAM part's peak over the frame's cycles", 100.0 * u),
+        None => {
+            writeln!(
+                s,
+                "; utilisation {:.2} % of the peak over the frame's cycles",
+                opt(m.rates.dram_utilisation, 100.0)
+            )
+        }
+    }
+    .ok();
     if let (Some(b), Some(fl)) = (&m.rates.bytes_per_display_pixel, &m.rates.floor_bytes_per_display_pixel) {
         let _ = write!(s, "bytes per display pixel (mean), each with its floor:");
         for (i, ((name, v), (_, f))) in b.iter().into_iter().zip(fl.iter()).enumerate() {
@@ -336,6 +346,13 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         r.total.counters.tiles_held_to_warp_end.iter().sum::<u64>(),
     );
     s
+}
+
+/// The summary's DRAM utilisation: of the DRAM part's peak with DRAMsim3
+/// (`dram_backend_utilisation`), else of the ideal channel's
+/// (`dram_utilisation`).
+fn utilisation(r: &HwRates) -> Option<f64> {
+    r.dram.dram_backend_utilisation.or(r.dram_utilisation)
 }
 
 /// Total DRAM bytes per display pixel of `r`, NaN without pixels.
