@@ -81,7 +81,8 @@ pub struct Fifo<T> {
     counters: FifoCounters,
     /// The cycle of the last refused push, so a full cycle counts once.
     last_refused: Option<Cycle>,
-    /// The latest `now` seen, to catch time running backwards.
+    /// The latest `now` seen, to catch time running backwards (kept in
+    /// debug builds only, where the check runs).
     last_now: Cycle,
 }
 
@@ -247,23 +248,29 @@ impl<T: Copy> Fifo<T> {
     #[inline(always)]
     fn observe(&mut self, now: Cycle) {
         self.check_time(now);
-        self.last_now = now;
+        if cfg!(debug_assertions) {
+            self.last_now = now;
+        }
     }
 }
 
 /// A fixed-capacity ring buffer of `Copy` items (the FIFO's storage; slots
 /// are written as they are first needed, so no item value is invented).
+/// It holds at most `cap` items in a power-of-two number of slots, so that
+/// positions wrap with a mask.
 #[derive(Clone, Debug)]
 struct Ring<E> {
     buf: Vec<E>,
-    cap: usize,
+    /// Slots − 1 (slots: `cap` rounded up to a power of two).
+    mask: usize,
     head: usize,
     len: usize,
 }
 
 impl<E: Copy> Ring<E> {
     fn new(cap: usize) -> Ring<E> {
-        Ring { buf: Vec::with_capacity(cap), cap, head: 0, len: 0 }
+        let slots = cap.next_power_of_two();
+        Ring { buf: Vec::with_capacity(slots), mask: slots - 1, head: 0, len: 0 }
     }
 
     #[inline(always)]
@@ -278,13 +285,13 @@ impl<E: Copy> Ring<E> {
 
     #[inline(always)]
     fn wrap(&self, i: usize) -> usize {
-        if i >= self.cap { i - self.cap } else { i }
+        i & self.mask
     }
 
     /// Append; the caller keeps `len < cap`.
     #[inline(always)]
     fn push_back(&mut self, e: E) {
-        debug_assert!(self.len < self.cap);
+        debug_assert!(self.len <= self.mask);
         let at = self.wrap(self.head + self.len);
         if at == self.buf.len() {
             self.buf.push(e);
