@@ -25,6 +25,7 @@
 //! Not modelled: the mesh/splat bit of TR98 §7.1 (the hardware draws only
 //! the anti-aliased flat rectangles of §7.2).
 
+use crate::bits;
 use bitvec::vec::BitVec;
 
 /// Per-sample planes of a derived frame, row-major (`y·width + x`).
@@ -99,5 +100,16 @@ impl DestFrame {
         self.fill_valid.set(i, real);
         self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
         self.fill_distance[i] = 0;
+    }
+
+    /// [`DestFrame::begin_warp_sample`] of every sample in `range` (one run
+    /// of a row): the same values.
+    pub fn begin_warp_run(&mut self, range: std::ops::Range<usize>) {
+        for i in range.clone() {
+            let real = bits::get(&self.real, i);
+            bits::put(&mut self.fill_valid, i, real);
+            self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
+        }
+        self.fill_distance[range].fill(0);
     }
 }

@@ -123,6 +123,7 @@
 //! model, which leaves them untouched in a derived frame and empty in a
 //! reference frame).
 
+use crate::bits;
 use crate::{DestFrame, SampleImage};
 
 /// Bytes of one fragment in memory (128 bits: colour 3×10 bit, kind bit,
@@ -595,11 +596,12 @@ pub fn reference_depth(inv_z: f32) -> f32 {
 /// and the fallback pass's byte count share.
 #[inline]
 pub fn sample_in(frame: &DestFrame, i: usize) -> Option<SampleIn> {
-    (frame.real[i] || frame.hole[i]).then(|| SampleIn {
+    let real = bits::get(&frame.real, i);
+    (real || bits::get(&frame.hole, i)).then(|| SampleIn {
         colour: frame.colour[i],
         inv_z: frame.inv_z[i],
         slopes: frame.slopes[i],
-        real: frame.real[i],
+        real,
         key: frame.source[i] as u32,
         weight: frame.fill_weight[i],
     })
@@ -649,16 +651,16 @@ pub fn round_trip_dest_pixels(
             for (k, &i) in idx[..n].iter().enumerate() {
                 match packed.covering(k as u32) {
                     None => {
-                        frame.real.set(i, false);
-                        frame.hole.set(i, false);
+                        bits::put(&mut frame.real, i, false);
+                        bits::put(&mut frame.hole, i, false);
                     }
                     Some(f) => {
                         frame.colour[i] = f.colour;
                         frame.inv_z[i] = if f.real { f.inv_z_at(ss, k as u32) } else { 0.0 };
                         frame.slopes[i] = f.slopes;
                         frame.source[i] = f.key as u8;
-                        frame.real.set(i, f.real);
-                        frame.hole.set(i, !f.real);
+                        bits::put(&mut frame.real, i, f.real);
+                        bits::put(&mut frame.hole, i, !f.real);
                         frame.fill_weight[i] = f.weight;
                     }
                 }

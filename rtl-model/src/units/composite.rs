@@ -49,6 +49,7 @@ use super::raster::Stamped;
 use super::tile_manager::TileManager;
 use super::transform::TransformUnit;
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
+use crate::bits;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
@@ -93,7 +94,7 @@ pub fn composite(
     slope_tol: f64,
     rel_tol: f64,
 ) -> Verdict {
-    let verdict = if !f.real[i] {
+    let verdict = if !bits::get(&f.real, i) {
         Verdict::Filled
     } else {
         let (s, ss) = (f.inv_z[i], f.slopes[i]);
@@ -113,11 +114,11 @@ pub fn composite(
         f.inv_z[i] = c.inv_z;
         f.slopes[i] = c.slopes;
         f.source[i] = c.source;
-        f.hole.set(i, false);
-        f.real.set(i, true);
+        bits::put(&mut f.hole, i, false);
+        bits::put(&mut f.real, i, true);
         f.fill_weight[i] = 0.0;
         f.fill_colour[i] = c.fill_colour;
-        f.fill_valid.set(i, true);
+        bits::put(&mut f.fill_valid, i, true);
         f.fill_distance[i] = 0;
     }
     verdict

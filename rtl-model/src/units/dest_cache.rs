@@ -262,11 +262,9 @@ impl DestCache {
         if fresh {
             let ts = self.tile_size;
             let (tx, ty) = (t % self.tiles.0, t / self.tiles.0);
+            let (x0, x1) = (tx * ts, ((tx + 1) * ts).min(f.width));
             for y in ty * ts..((ty + 1) * ts).min(f.height) {
-                for x in tx * ts..((tx + 1) * ts).min(f.width) {
-                    let i = f.index(x, y);
-                    f.begin_warp_sample(i);
-                }
+                f.begin_warp_run(f.index(x0, y)..f.index(x0, y) + (x1 - x0) as usize);
             }
         }
     }

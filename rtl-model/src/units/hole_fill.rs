@@ -76,6 +76,7 @@ use super::dest_cache::DestCache;
 use super::tile_cache::TileState;
 use super::tile_manager::TileManager;
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
+use crate::bits;
 use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
@@ -216,7 +217,7 @@ impl HoleFillUnit {
         let j = f.index(tx, ty);
         let key = self.order.key(tx, ty);
         let earlier = if self.reverse { key > own_rank } else { key < own_rank };
-        (earlier && f.fill_valid[j]).then_some(j)
+        (earlier && bits::get(&f.fill_valid, j)).then_some(j)
     }
 
     /// Process sample `(x, y)` of `line` (rules 2–6). Samples must come in
@@ -225,7 +226,7 @@ impl HoleFillUnit {
         debug_assert!(f.width == self.width && f.height == self.height, "frame size differs from the unit's");
         self.counters.visited += 1;
         let i = f.index(x, y);
-        if f.fill_valid[i] {
+        if bits::get(&f.fill_valid, i) {
             return FillOutcome::Surface;
         }
         let own = self.order.key(x, y);
@@ -265,18 +266,18 @@ impl HoleFillUnit {
         let count = n as f64;
         let c = sum.map(|v| (v / count) as f32);
         f.fill_colour[i] = c;
-        f.fill_valid.set(i, true);
+        bits::put(&mut f.fill_valid, i, true);
         f.fill_distance[i] = dist as u8;
-        if !f.real[i] {
+        if !bits::get(&f.real, i) {
             // Rule 6: weighted accumulation over references.
             let wt = f.fill_weight[i] as f64;
             let inv_d = 1.0 / dist as f64;
-            let old = if f.hole[i] { f.colour[i] } else { [0.0; 3] };
+            let old = if bits::get(&f.hole, i) { f.colour[i] } else { [0.0; 3] };
             for k in 0..3 {
                 f.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
             }
             f.fill_weight[i] = (wt + inv_d) as f32;
-            f.hole.set(i, true);
+            bits::put(&mut f.hole, i, true);
         }
         self.counters.filled += 1;
         self.counters.far_taps_used += far_taps as u64;
@@ -373,7 +374,7 @@ impl HoleFillStage {
                 break;
             }
             let i = io.frame.index(x, y);
-            if !io.frame.fill_valid[i] {
+            if !bits::get(&io.frame.fill_valid, i) {
                 // Taps read tiles visited earlier: they must be on chip.
                 let mut ready = true;
                 // Each tap tile is looked up once per sample, however many
