@@ -20,6 +20,10 @@ use postwarp_rtl::{FrameCommands, SampleImage};
 use std::hint::black_box;
 use std::time::Duration;
 
+/// Huge pages for the frame planes (`postwarp::huge_pages`).
+#[global_allocator]
+static ALLOC: postwarp::huge_pages::HugePageAlloc = postwarp::huge_pages::HugePageAlloc;
+
 /// One derived frame's commands and its prepared references.
 struct Input {
     cmd: FrameCommands,

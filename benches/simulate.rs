@@ -23,6 +23,10 @@ use postwarp_rtl::engine::{Engine, HwReference};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+/// Huge pages for the frame planes (`postwarp::huge_pages`).
+#[global_allocator]
+static ALLOC: postwarp::huge_pages::HugePageAlloc = postwarp::huge_pages::HugePageAlloc;
+
 /// `mark1998` before issue 14's sizing (module doc).
 fn one_lane() -> EngineConfig {
     EngineConfig {

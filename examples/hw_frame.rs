@@ -13,6 +13,10 @@ use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{Engine, HwReference};
 use std::time::Instant;
 
+/// Huge pages for the frame planes (`postwarp::huge_pages`).
+#[global_allocator]
+static ALLOC: postwarp::huge_pages::HugePageAlloc = postwarp::huge_pages::HugePageAlloc;
+
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(1);
     let BenchFrame { cmd, refs: imgs, .. } = BenchFrame::new(standard_spec()).expect("bench frame");

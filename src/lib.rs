@@ -12,6 +12,7 @@ pub mod cli;
 pub mod dram;
 pub mod fuzz_entry;
 pub mod golden;
+pub mod huge_pages;
 pub mod import;
 pub mod io_util;
 pub mod methods;
