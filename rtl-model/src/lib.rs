@@ -10,6 +10,7 @@
 //!   [`cmd`] and [`fixed`].
 #![warn(missing_docs)]
 
+pub mod budget;
 pub mod camera;
 pub mod clock;
 pub mod cmd;
