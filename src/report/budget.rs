@@ -9,6 +9,7 @@ use postwarp_rtl::budget::{
     AREA_CONSTANTS, Budget, DATAPATH_FIELDS, OP_FIELDS, Ops, STORE_FIELDS, Sizes, TOTAL_FIELDS,
 };
 use serde_json::{Value, json};
+use std::fmt::Write as _;
 
 fn ops(o: &Ops) -> Value {
     json!({"mul": o.mul, "add": o.add, "recip": o.recip, "sqrt": o.sqrt, "cmp": o.cmp})
@@ -144,4 +145,71 @@ pub fn keys() -> Vec<KeyDoc> {
         nested("totals", Reduce::Once, total_keys, "sums over the stores and datapaths"),
         nested("area_constants", Reduce::Once, constant_keys, "every constant of the area estimate, with its source"),
     ]
+}
+
+/// `b` as text: the sizes, one line per store, one per datapath, the
+/// totals (what `postwarp simulate --budget` and `postwarp size` print).
+pub fn text(b: &Budget) -> String {
+    let mut s = String::new();
+    let t = &b.totals;
+    let _ = writeln!(
+        s,
+        "on-chip stores ({}x{} derived samples, reference lines of {} samples; docs/budget.md):",
+        b.sizes.derived.0, b.sizes.derived.1, b.sizes.reference_line
+    );
+    let _ = writeln!(s, "{:<34} {:<9} {:>10} {:>6} {:>12}", "store", "kind", "entries", "bits", "bytes");
+    for st in &b.stores {
+        let _ = writeln!(
+            s,
+            "{:<34} {:<9} {:>10} {:>6} {:>12}",
+            st.name,
+            st.kind.name(),
+            st.entries,
+            st.bits_per_entry,
+            st.bytes
+        );
+    }
+    let _ = writeln!(s, "datapaths (operators per item x items per cycle = instantiated):");
+    let _ = writeln!(
+        s,
+        "{:<13} {:<62} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
+        "unit", "function", "format", "items", "mul", "add", "recip", "sqrt", "cmp"
+    );
+    for d in &b.datapaths {
+        let p = &d.per_item;
+        let _ = writeln!(
+            s,
+            "{:<13} {:<62} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
+            d.unit,
+            d.function,
+            d.format.name(),
+            d.items_per_cycle,
+            p.mul,
+            p.add,
+            p.recip,
+            p.sqrt,
+            p.cmp
+        );
+    }
+    let i = &t.instances;
+    let _ = writeln!(
+        s,
+        "operators instantiated: {} mul, {} add, {} recip, {} sqrt, {} cmp",
+        i.mul, i.add, i.recip, i.sqrt, i.cmp
+    );
+    let _ = writeln!(
+        s,
+        "SRAM total: {} bytes ({:.1} KiB) in SRAM + {} bytes in registers = {} bytes on chip; area estimate {:.2} mm² at {} \
+         ({:.2} SRAM + {:.2} registers + {:.2} operators)",
+        t.sram_bytes,
+        t.sram_bytes as f64 / 1024.0,
+        t.register_bytes,
+        t.store_bytes,
+        t.area_mm2,
+        b.process_node,
+        t.sram_area_mm2,
+        t.register_area_mm2,
+        t.logic_area_mm2,
+    );
+    s
 }

@@ -199,46 +199,9 @@ pub fn text(o: &Outcome) -> String {
         );
     }
     if let Some(b) = &o.budget {
-        budget_text(&mut s, b);
+        s.push_str(&crate::report::budget::text(b));
     }
     s
-}
-
-/// The chosen configuration's on-chip stores, one per line, and the totals
-/// (`docs/budget.md`).
-fn budget_text(s: &mut String, b: &postwarp_rtl::budget::Budget) {
-    let t = &b.totals;
-    let _ = writeln!(
-        s,
-        "on-chip stores of this configuration ({}x{} derived samples, reference lines of {} samples):",
-        b.sizes.derived.0, b.sizes.derived.1, b.sizes.reference_line
-    );
-    let _ = writeln!(s, "{:<34} {:<9} {:>10} {:>6} {:>12}", "store", "kind", "entries", "bits", "bytes");
-    for st in &b.stores {
-        let _ = writeln!(
-            s,
-            "{:<34} {:<9} {:>10} {:>6} {:>12}",
-            st.name,
-            st.kind.name(),
-            st.entries,
-            st.bits_per_entry,
-            st.bytes
-        );
-    }
-    let _ = writeln!(
-        s,
-        "SRAM total: {} bytes ({:.1} KiB) in SRAM + {} bytes in registers = {} bytes on chip; area estimate {:.2} mm² at {} \
-         ({:.2} SRAM + {:.2} registers + {:.2} operators)",
-        t.sram_bytes,
-        t.sram_bytes as f64 / 1024.0,
-        t.register_bytes,
-        t.store_bytes,
-        t.area_mm2,
-        b.process_node,
-        t.sram_area_mm2,
-        t.register_area_mm2,
-        t.logic_area_mm2,
-    );
 }
 
 /// `size.json` contents.
