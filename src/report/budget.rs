@@ -172,14 +172,14 @@ pub fn text(b: &Budget) -> String {
     let _ = writeln!(s, "datapaths (operators per item x items per cycle = instantiated):");
     let _ = writeln!(
         s,
-        "{:<13} {:<62} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
+        "{:<13} {:<64} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
         "unit", "function", "format", "items", "mul", "add", "recip", "sqrt", "cmp"
     );
     for d in &b.datapaths {
         let p = &d.per_item;
         let _ = writeln!(
             s,
-            "{:<13} {:<62} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
+            "{:<13} {:<64} {:>6} {:>5} {:>5} {:>5} {:>5} {:>5} {:>5}",
             d.unit,
             d.function,
             d.format.name(),
