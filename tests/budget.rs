@@ -217,3 +217,22 @@ fn size_prints_the_sram_total_of_the_configuration_it_picks() {
     let plane1 = stores.iter().find(|s| s["name"] == "dest_cache.plane1_colour").unwrap();
     assert_eq!(plane1["bytes"].as_u64().unwrap(), cache / (tile * tile * 16) * tile * tile * 96 / 8);
 }
+
+#[test]
+fn simulate_budget_prints_a_configuration_alone() {
+    for name in ["mark1998", "hmd2026"] {
+        let o = Command::new(env!("CARGO_BIN_EXE_postwarp"))
+            .args(["simulate", "--preset", name, "--budget"])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = String::from_utf8_lossy(&o.stdout);
+        let want: u64 = {
+            let c = EngineConfig::preset(name).unwrap();
+            let ss = c.supersample as u64;
+            let d = (c.display_width as u64 * ss, c.display_height as u64 * ss);
+            expected(&c, d, default_line(&c)).iter().filter(|w| w.1).map(|w| w.2).sum()
+        };
+        assert!(text.contains(&format!("SRAM total: {want} bytes")), "{name}: {text}");
+    }
+}
