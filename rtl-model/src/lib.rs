@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod bits;
+pub mod budget;
 pub mod camera;
 pub mod clock;
 pub mod cmd;

@@ -12,7 +12,7 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct Args {
     /// Trace directory (or its `postwarp.trace` manifest).
-    #[arg(required_unless_present = "dump_config", requires = "out")]
+    #[arg(required_unless_present_any = ["dump_config", "budget"], requires = "out")]
     pub trace: Option<PathBuf>,
     /// Output directory: frame-NNNN.png/.exr, diff-NNNN.png, report.json
     /// (must not exist, unless --force; written under a temporary name
@@ -34,6 +34,12 @@ pub struct Args {
     /// a comment (`-` = standard output). Without a trace, nothing runs.
     #[arg(long, value_name = "FILE")]
     pub dump_config: Option<PathBuf>,
+    /// Print the SRAM and arithmetic budget of the configuration (--config /
+    /// --preset) alone: its display and a reference 1.6725 times as wide
+    /// (docs/budget.md). Without a trace, nothing runs; with one, the
+    /// summary and report.json carry the budget sized for the trace.
+    #[arg(long)]
+    pub budget: bool,
     /// Also write timeline-NNNN.json per frame: the frame's pipeline in the
     /// Chrome trace event format (open in ui.perfetto.dev or
     /// chrome://tracing; docs/units.md, "Timeline").
@@ -73,6 +79,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
                 .with_context(|| "--dump-config: cannot write the configuration")?;
             eprintln!("wrote {}", file.display());
         }
+    }
+    if a.budget {
+        print!("{}", crate::report::budget::text(&postwarp_rtl::budget::Budget::of(&cfg)));
     }
     let (Some(trace), Some(out)) = (&a.trace, &a.out) else { return Ok(()) };
     let trace = Trace::open(trace)?;

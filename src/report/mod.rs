@@ -37,6 +37,7 @@
 //!    that missed on first use (accesses); without a prefetch the two are
 //!    the same number. Older files read unchanged, their new keys 0.
 
+pub mod budget;
 pub mod csv;
 pub mod docs;
 pub mod dram;

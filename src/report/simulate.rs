@@ -124,6 +124,10 @@ pub struct SimulateReport {
     pub total: HwTotal,
     /// Means over frames.
     pub mean: HwMean,
+    /// The SRAM and arithmetic budget of the configuration
+    /// (`super::budget`; `null` in files written before it).
+    #[serde(default)]
+    pub budget: Value,
 }
 
 impl SimulateReport {
@@ -147,6 +151,7 @@ impl SimulateReport {
             frames,
             total,
             mean,
+            budget: super::budget::to_json(&postwarp_rtl::budget::Budget::of(cfg)),
         }
     }
 }
@@ -244,6 +249,13 @@ pub fn report_keys() -> Vec<KeyDoc> {
         nested("frames", Reduce::Once, frame_keys, "one object per derived frame"),
         nested("total", Reduce::Once, total_keys, "sums over frames (key rules)"),
         nested("mean", Reduce::Once, mean_keys, "means over frames (key rules); rates from the mean counters"),
+        nested(
+            "budget",
+            Reduce::Once,
+            super::budget::keys,
+            "SRAM bytes of every on-chip store, operators per item of every datapath and a 45 nm area estimate for \
+             this configuration, with the frame and reference sizes of the trace (`docs/budget.md`)",
+        ),
     ]);
     k
 }

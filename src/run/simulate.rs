@@ -42,6 +42,7 @@ use crate::run::hw_config::golden_config_for;
 use crate::trace::Trace;
 use anyhow::Context;
 use bitvec::vec::BitVec;
+use postwarp_rtl::budget::Budget;
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{FrameOutput, HwReference};
 use rayon::prelude::*;
@@ -201,11 +202,17 @@ fn measure(
     }
     let mut report = SimulateReport::new(trace.manifest.display().to_string(), &cfg, from_trace, frames);
     report.ignored_layers = trace.layer_kinds().into_iter().map(String::from).collect();
+    report.budget = crate::report::budget::to_json(&budget_of(&cfg, trace));
     let summary = summary(&report, &cfg, trace);
     if let Some(out) = out {
         crate::report::write(&report, out)?;
     }
     Ok(SimulateRun { report, summary })
+}
+
+/// The budget of `cfg` for the frame and reference sizes of `trace`.
+fn budget_of(cfg: &EngineConfig, trace: &Trace) -> Budget {
+    Budget::sized(cfg, crate::report::budget::trace_sizes(trace, cfg.supersample))
 }
 
 fn pixels8(p: &[[f32; 3]]) -> Vec<[u8; 3]> {
@@ -344,6 +351,35 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         d.misses_late,
         d.misses_capacity,
         r.total.counters.tiles_held_to_warp_end.iter().sum::<u64>(),
+    );
+    let b = budget_of(cfg, trace);
+    let t = &b.totals;
+    let dest: u64 = b
+        .stores
+        .iter()
+        .filter(|s| s.unit == "dest_cache" && s.kind == postwarp_rtl::budget::StoreKind::Sram)
+        .map(|s| s.bytes)
+        .sum();
+    let _ = writeln!(
+        s,
+        "on-chip stores (budget in report.json, docs/budget.md): {:.1} KiB = {:.1} KiB SRAM ({:.1} KiB of it the \
+         destination cache's per-sample planes at their widths, for {} KiB of dest_cache_bytes) + {:.1} KiB registers; area estimate \
+         {:.2} mm² at {} ({:.2} SRAM + {:.2} registers + {:.2} operators: {} mul, {} add, {} recip, {} sqrt, {} cmp)",
+        t.store_bytes as f64 / 1024.0,
+        t.sram_bytes as f64 / 1024.0,
+        dest as f64 / 1024.0,
+        cfg.dest_cache_bytes / 1024,
+        t.register_bytes as f64 / 1024.0,
+        t.area_mm2,
+        b.process_node,
+        t.sram_area_mm2,
+        t.register_area_mm2,
+        t.logic_area_mm2,
+        t.instances.mul,
+        t.instances.add,
+        t.instances.recip,
+        t.instances.sqrt,
+        t.instances.cmp,
     );
     s
 }

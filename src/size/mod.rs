@@ -130,6 +130,9 @@ pub struct Outcome {
     pub chosen: Option<usize>,
     /// The chosen configuration in full.
     pub config: Option<EngineConfig>,
+    /// Its SRAM and arithmetic budget, for the frame and references of the
+    /// trace it was scored on (`docs/budget.md`).
+    pub budget: Option<postwarp_rtl::budget::Budget>,
     /// The trace each super-sampling was run on: (samples, directory).
     pub trace_dirs: Vec<(u32, PathBuf)>,
     /// The ground truth every candidate was scored against: the trace
@@ -208,6 +211,7 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
         candidates: Vec::new(),
         chosen: None,
         config: None,
+        budget: None,
         trace_dirs: traces.iter().map(|t| (t.supersample, t.dir.clone())).collect(),
         truth: {
             let hi = traces.last().expect("at least the trace itself");
@@ -312,6 +316,8 @@ pub fn run_size(o: &Options) -> anyhow::Result<Outcome> {
     cfg.dest_cache_bytes = c.dest_cache_bytes;
     debug_assert_eq!(cache_tiles(cfg.dest_cache_bytes, cfg.tile_size), c.dest_cache_tiles);
     out.chosen = Some(b);
+    let sizes = crate::report::budget::trace_sizes(&t.trace, cfg.supersample);
+    out.budget = Some(postwarp_rtl::budget::Budget::sized(&cfg, sizes));
     out.config = Some(cfg);
     Ok(out)
 }

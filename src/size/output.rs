@@ -198,6 +198,9 @@ pub fn text(o: &Outcome) -> String {
             c.ssim_luma.unwrap_or(f64::NAN),
         );
     }
+    if let Some(b) = &o.budget {
+        s.push_str(&crate::report::budget::text(b));
+    }
     s
 }
 
@@ -215,6 +218,7 @@ pub fn json(o: &Outcome) -> serde_json::Value {
         "config": o.config.as_ref().map(crate::run::hw_config_toml::to_json),
         "scored_against": scored_against(o),
         "chosen": o.chosen.map(|i| &o.candidates[i]),
+        "budget": o.budget.as_ref().map(crate::report::budget::to_json),
         "candidates": o.candidates,
     })
 }
