@@ -17,7 +17,10 @@
 //! 3. A-buffer packer (`units::packer`).
 //! 4. Hole fill (`units::hole_fill`).
 //! 5. Composite (`units::composite`).
-//! 6. Raster (`units::raster`).
+//! 6. Raster (`units::raster`), then a host-speed hint that changes
+//!    nothing in the model: the host CPU is asked to fetch the planes of
+//!    the stamps the compositor reaches next cycle
+//!    (`units::composite::prefetch_stamps`).
 //! 7. Kernel setup (`units::kernel_setup`), then the tile manager's
 //!    retirement (`units::tile_manager`), then the schedule's tile
 //!    prefetch (`units::tile_prefetch`) ahead of kernel setup's and the
@@ -68,7 +71,7 @@ use crate::schedule::{Schedule, fill_first_lines, release_order};
 use crate::timeline::{Occupancy, RequestSpan, Timeline};
 use crate::traversal::{line_ring, warp_lines};
 use crate::units::abuffer::AbufferCounters;
-use crate::units::composite::{CompositePorts, CompositeStage};
+use crate::units::composite::{CompositePorts, CompositeStage, prefetch_stamps};
 use crate::units::dest_cache::DestCache;
 use crate::units::fallback_fill::{FallbackPorts, FallbackStage};
 use crate::units::fetch::{FetchPorts, FetchStage, SourceCache};
@@ -465,6 +468,7 @@ impl Machine<'_> {
             // 6. Raster.
             let (input, out) = (&mut p.kernels, &mut p.stamps);
             moved |= p.raster.tick(now, &mut RasterPorts { input, out, tiles }).moved;
+            prefetch_stamps(&p.stamps, frame);
             // 7. Kernel setup, then tile retirement.
             let (transform, fetch_interval) = (&mut p.transform, p.fetch.interval());
             let mut io = KernelSetupPorts { transform, fetch_interval, out: &mut p.kernels, tiles };

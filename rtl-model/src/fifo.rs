@@ -6,7 +6,8 @@
 //!
 //! API ([`Fifo`]): `new(capacity, latency)`; producer side `offer(now)`,
 //! `push(now, item) -> Result<(), T>`, and `can_push(now)` for observers; consumer side `can_pop(now)`,
-//! `peek(now)`, `pop(now)`; `len`, `is_empty`, `capacity`, `latency`; counters
+//! `peek(now)`, `pop(now)`; `len`, `is_empty`, `capacity`, `latency`, `held(k)`
+//! (the k-th item, visible or not, for observers); counters
 //! in [`FifoCounters`] (`counters()`).
 //!
 //! Timing rules:
@@ -216,6 +217,13 @@ impl<T: Copy> Fifo<T> {
         self.items.front().map(|(_, item)| item)
     }
 
+    /// The `k`-th oldest item, visible or not (`None` past the last): for
+    /// observers such as a host-side prefetch; it changes nothing.
+    #[inline]
+    pub fn held(&self, k: usize) -> Option<&T> {
+        (k < self.items.len()).then(|| &self.items.get(k).1)
+    }
+
     /// The oldest item, visible or not, for in-place updates by the
     /// consumer that will pop it (e.g. marking a retry).
     #[inline]
@@ -346,6 +354,27 @@ mod tests {
                 assert_eq!(f.pop(Cycle(t)), None);
             }
             assert_eq!(f.len(), 1);
+        }
+    }
+
+    #[test]
+    fn held_items_are_seen_in_order_across_the_wrap_of_a_non_power_of_two_capacity() {
+        // Capacity 3 in 4 slots: push and pop past the wrap several times.
+        let mut f = Fifo::new(3, 2);
+        let mut next = 0u32;
+        for round in 0..10u64 {
+            let now = N + 10 * round;
+            while f.push(now, next).is_ok() {
+                next += 1;
+            }
+            assert_eq!(f.len(), 3, "capacity holds");
+            let first = next - 3;
+            for k in 0..3 {
+                assert_eq!(f.held(k), Some(&(first + k as u32)), "round {round}, item {k}");
+            }
+            assert_eq!(f.held(3), None);
+            assert_eq!(f.pop(now + 2), Some(first));
+            assert_eq!(f.pop(now + 2), Some(first + 1));
         }
     }
 

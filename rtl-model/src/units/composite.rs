@@ -138,23 +138,39 @@ pub struct CompositePorts<'a> {
     pub tiles: &'a mut TileManager,
 }
 
-/// The destination tiles a stamp touches (at most 4, rule 5), in a fixed
-/// array with their count.
+/// The destination tiles a stamp touches (at most 4, rule 5: at most two
+/// per axis), row by row, in a fixed array with their count. Built in
+/// registers: writing the array element by element and reading it back
+/// whole stalled the host's store forwarding on every stamp.
 #[inline]
 fn stamp_tiles(c: &DestCache, job: &Stamped) -> ([u32; 4], usize) {
-    let mut tiles = [u32::MAX; 4];
     let (tx0, tx1) = (c.tile_col(job.stamp.x.0 as u32), c.tile_col(job.stamp.x.1 as u32));
     let (ty0, ty1) = (c.tile_row_base(job.stamp.y.0 as u32), c.tile_row_base(job.stamp.y.1 as u32));
-    let mut k = 0;
-    let mut row = ty0;
-    while row <= ty1 {
-        for tx in tx0..=tx1 {
-            tiles[k] = row + tx;
-            k += 1;
-        }
-        row += c.tiles().0;
+    let row = c.tiles().0;
+    debug_assert!(tx1 <= tx0 + 1 && ty1 <= ty0 + row, "a stamp spans at most two tiles per axis");
+    let t = ty0 + tx0;
+    const NONE: u32 = u32::MAX;
+    match (tx1 > tx0, ty1 > ty0) {
+        (false, false) => ([t, NONE, NONE, NONE], 1),
+        (true, false) => ([t, t + 1, NONE, NONE], 2),
+        (false, true) => ([t, t + row, NONE, NONE], 2),
+        (true, true) => ([t, t + 1, t + row, t + row + 1], 4),
     }
-    (tiles, k)
+}
+
+/// Host speed only: ask the host CPU to fetch the planes of the rows of
+/// every stamp in `input`, which the compositor reaches next cycle (the
+/// engine calls it after the rasterizer's tick). No value or timing
+/// depends on it.
+#[inline]
+pub fn prefetch_stamps(input: &Fifo<Stamped>, frame: &DestFrame) {
+    for k in 0..input.len() {
+        let Some(job) = input.held(k) else { break };
+        let x = job.stamp.x.0.max(0) as u32;
+        for row in job.stamp.y.0.max(0)..=job.stamp.y.1 {
+            frame.prefetch(frame.index(x, row as u32));
+        }
+    }
 }
 
 /// A stamp waiting in the miss queue for a tile, with its tiles.

@@ -311,7 +311,7 @@ impl<'s> KernelSetupStage<'s> {
             if !self.computed {
                 self.compute_line(io.transform);
             }
-            let Some(&e) = self.emits.get(self.next_emit) else {
+            let Some(e) = self.emits.get(self.next_emit) else {
                 self.next_line();
                 continue;
             };
@@ -326,7 +326,7 @@ impl<'s> KernelSetupStage<'s> {
                 Emit::Kernel(k) => {
                     self.kernels += 1;
                     io.tiles.kernel_issued(self.line);
-                    io.out.push(now, k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
+                    io.out.push(now, *k).unwrap_or_else(|_| unreachable!("offer() accepted the kernel"));
                 }
             }
         }
