@@ -14,6 +14,7 @@ pub mod fuzz_entry;
 pub mod golden;
 pub mod import;
 pub mod io_util;
+pub mod knobs;
 pub mod methods;
 pub mod metrics;
 pub mod path;
