@@ -15,6 +15,7 @@ pub mod golden;
 pub mod huge_pages;
 pub mod import;
 pub mod io_util;
+pub mod knobs;
 pub mod methods;
 pub mod metrics;
 pub mod path;

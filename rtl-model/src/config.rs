@@ -1,20 +1,25 @@
 //! Knobs of the cycle-level hardware model.
 //!
 //! Job: one plain struct, [`EngineConfig`], with every parameter of the
-//! hardware model, each with a unit, a one-line description ([`KNOBS`]) and
-//! a default from the paper (UNC TR98-011) or from
-//! `docs/warper-reference.md` §5 and §7 where the paper is silent.
+//! hardware model, declared once in a knob table ([`crate::knob_table!`]):
+//! each knob's field, unit, one-line description, default (from the paper,
+//! UNC TR98-011, or from `docs/warper-reference.md` §5 and §7 where the
+//! paper is silent) and valid range, in [`KNOBS`]. The rules between knobs
+//! are [`CROSS_RULES`].
 //!
 //! API: `EngineConfig::default()` (= the `mark1998` preset),
 //! [`EngineConfig::preset`] with the names in [`PRESETS`],
-//! [`EngineConfig::validate`] (the message names the knob),
-//! [`EngineConfig::dram`] (the [`DramConfig`] part), [`KNOBS`].
+//! [`EngineConfig::validate`] (every knob's range from [`KNOBS`], then
+//! [`CROSS_RULES`]; the message names the knob), [`EngineConfig::dram`]
+//! (the [`DramConfig`] part), [`KNOBS`] (read and set by name:
+//! [`crate::knob`]), [`RENAMED_KNOBS`] / [`current_knob_name`].
 //!
 //! Rules: no parsing here (this crate has no dependencies beyond `glam` and
-//! `bitvec`); the `postwarp` crate maps TOML keys one to one onto the field
-//! names, which are the names in [`KNOBS`]. Only raw knobs are stored;
-//! derived quantities (cycles per frame, bytes per cycle needed) are
-//! computed by whoever reports them.
+//! `bitvec`); the `postwarp` crate maps TOML and JSON values onto the knobs
+//! of [`KNOBS`] generically (`src/knobs/`) and generates the knob table of
+//! `docs/units.md` from it. Only raw knobs are stored; derived quantities
+//! (cycles per frame, bytes per cycle needed) are computed by whoever
+//! reports them.
 //!
 //! Throughput/latency: not applicable (plain data).
 //!
@@ -94,27 +99,28 @@
 //! a large share of a memory also used by the renderer and the display,
 //! which this preset does not subtract.
 
+use crate::knob::{CrossRule, Knob, KnobValue, Range};
 use crate::mem::DramConfig;
 
 /// Bytes one super-sample occupies in an on-chip cache (colour, 1/Z and
 /// slopes, flags), after `docs/warper-reference.md` §5 (16 B per sample).
 pub const CACHE_BYTES_PER_SAMPLE: u64 = 16;
 
-/// Values of the `dram_backend` knob.
-pub const DRAM_BACKENDS: &[&str] = &["ideal", "dramsim3"];
+crate::knob_names! {
+    /// Values of the `dram_backend` knob.
+    pub DRAM_BACKENDS, DRAM_BACKENDS_UNIT = "ideal", "dramsim3"
+}
+
+/// What `dram_address_mapping` accepts (besides `""`, the ini's own).
+const ADDRESS_MAPPING_RULE: &str = "six two-letter fields, each of ch, ra, bg, ba, ro, co once, most significant first (e.g. rochrababgco), or \"\" \
+     for the ini's";
 
 /// Check a DRAMsim3 address mapping string the way DRAMsim3 reads it (it
 /// exits the process on a bad one): six two-letter fields, each of `ch`,
 /// `ra`, `bg`, `ba`, `ro`, `co` once.
 pub fn check_address_mapping(m: &str) -> Result<(), String> {
     const FIELDS: [&str; 6] = ["ch", "ra", "bg", "ba", "ro", "co"];
-    let bad = || {
-        format!(
-            "dram_address_mapping = \"{m}\": expected six two-letter fields, each of {} once, most significant \
-             first (e.g. rochrababgco), or \"\" for the ini's",
-            FIELDS.join(", ")
-        )
-    };
+    let bad = || format!("dram_address_mapping = \"{m}\": expected {ADDRESS_MAPPING_RULE}");
     if m.len() != 12 || !m.is_ascii() {
         return Err(bad());
     }
@@ -128,96 +134,155 @@ pub fn check_address_mapping(m: &str) -> Result<(), String> {
     Ok(())
 }
 
-/// Names accepted by [`EngineConfig::preset`].
-pub const PRESETS: &[&str] = &["mark1998", "hmd2026"];
-
-/// Every knob of the hardware model. Field names are the knob names.
-#[derive(Clone, Debug, PartialEq)]
-pub struct EngineConfig {
-    /// Super-samples per pixel along each axis (samples).
-    pub supersample: u32,
-    /// A-buffer fragments per pixel in memory (fragments/pixel; 0 = samples
-    /// stored raw, no A-buffer).
-    pub abuffer_fragments: u32,
-    /// Largest kernel side the rasterizer draws (samples).
-    pub kernel_limit: u32,
-    /// Rectangles the rasterizer accepts per cycle (rectangles/cycle).
-    pub rects_per_cycle: u32,
-    /// Cycles from a sample entering the transform unit to its result
-    /// (cycles).
-    pub transform_latency: u32,
-    /// Samples the transform unit accepts per cycle (samples/cycle).
-    pub transform_throughput: u32,
-    /// Side of a destination tile (samples).
-    pub tile_size: u32,
-    /// Capacity of the destination tile cache (bytes).
-    pub dest_cache_bytes: u64,
-    /// Capacity of the source (reference) cache (bytes).
-    pub source_cache_bytes: u64,
-    /// Peak DRAM bandwidth available to the warper (bytes/cycle).
-    pub dram_peak_bytes_per_cycle: u64,
-    /// Cycles from a DRAM request's acceptance to its first data (cycles).
-    pub dram_latency_cycles: u64,
-    /// DRAM transfer granule; requests are rounded up to it (bytes).
-    pub dram_burst_bytes: u64,
-    /// DRAM requests outstanding at once (requests).
-    pub dram_max_outstanding: u32,
-    /// What times the DRAM requests ([`DRAM_BACKENDS`]): `ideal` (the
-    /// fixed-latency, one-bus model of `mem::dram`) or `dramsim3` (a closed
-    /// loop through DRAMsim3, provided by the `postwarp` crate's `dramsim3`
-    /// feature).
-    pub dram_backend: String,
-    /// The DRAMsim3 configuration: the name of a shipped ini
-    /// (`configs/dram/`, without `.ini`) or a path to an ini file (only
-    /// with `dram_backend = "dramsim3"`).
-    pub dram_config: String,
-    /// DRAMsim3's `address_mapping`: six two-letter fields (`ch`, `ra`,
-    /// `bg`, `ba`, `ro`, `co`), most significant first, overriding the
-    /// ini's; empty = the ini's own (only with `dram_backend = "dramsim3"`).
-    pub dram_address_mapping: String,
-    /// Engine clock frequency (Hz).
-    pub clock_hz: u64,
-    /// Derived frames per second to sustain, per view (Hz).
-    pub target_frame_rate_hz: f64,
-    /// Display width per view (pixels).
-    pub display_width: u32,
-    /// Display height per view (pixels).
-    pub display_height: u32,
-    /// Views rendered per frame time, each by the same warper (views; 2 for
-    /// a stereo head-mounted display).
-    pub views: u32,
-    /// Reference frames warped per derived frame (references).
-    pub references_per_frame: u32,
-    /// Discontinuity threshold: neighbours are one surface iff their warped
-    /// distance is at most this times the expected spacing (ratio; TR98
-    /// 1.4 for the plates, 2.3 for the video).
-    pub threshold: f64,
-    /// Z tolerance, slope term (1): tol = slope_tol·|slopes|₁ + rel_tol·1/Z.
-    pub slope_tol: f64,
-    /// Z tolerance, relative term (fraction of 1/Z).
-    pub rel_tol: f64,
-    /// Margin of the better-reference test (fraction).
-    pub better_margin: f64,
-    /// Hole-fill distance past which the two far taps join (samples).
-    pub hole_far_distance: u32,
-    /// Offset of the far hole-fill taps along the line (samples).
-    pub hole_far_offset: u32,
-    /// Saturation of the 6-bit hole-fill distance plane (samples).
-    pub hole_max_distance: u32,
-    /// Derived samples the hole-fill unit visits per cycle (samples/cycle).
-    pub hole_fill_per_cycle: u32,
-    /// Pixels the A-buffer packer packs per cycle (pixels/cycle).
-    pub packer_pixels_per_cycle: u32,
-    /// Lines ahead of the sweep front at which the schedule loads a
-    /// destination tile (lines; 0 = no prefetch, every tile on demand).
-    pub tile_prefetch_distance: u32,
-    /// Stamps that may wait in the compositor's miss queue while later
-    /// stamps on resident tiles proceed (stamps; 0 = block in order).
-    pub composite_miss_queue: u32,
-    /// After the last warp, the hole-fill unit's fallback pass fills the
-    /// samples no epipolar pass reached (`units::fallback_fill`).
-    pub fallback_fill: bool,
+crate::knob_names! {
+    /// Names accepted by [`EngineConfig::preset`].
+    pub PRESETS, PRESETS_UNIT = "mark1998", "hmd2026"
 }
+
+const fn int(min: u64, max: u64) -> Range {
+    Range::Int { min, max }
+}
+
+const fn real(min: f64, max: f64) -> Range {
+    Range::Real { min, min_open: false, max }
+}
+
+crate::knob_table! {
+    /// Every knob of the hardware model. Field names are the knob names;
+    /// `Default` is the `mark1998` preset.
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct EngineConfig in KNOBS {
+        // The A-buffer packs at most 16 samples per pixel (a 16-bit mask).
+        supersample: u32 = 2; int(1, 4), "samples",
+            "super-samples per pixel along each axis; `postwarp simulate` replaces it by the trace's \
+             (`supersample_from_trace`)";
+        abuffer_fragments: u32 = 3; int(0, 16), "fragments/pixel",
+            "A-buffer fragments per pixel in memory (0 = raw samples); called `max_fragments` before \
+             `report_version` 3, a name configuration files may still use";
+        kernel_limit: u32 = 4; int(1, 64), "samples", "largest kernel side the rasterizer draws";
+        rects_per_cycle: u32 = 2; int(1, 256), "rectangles/cycle",
+            "rectangles the rasterizer (and the compositor) accepts per cycle";
+        transform_latency: u32 = 12; int(1, 1024), "cycles", "pipeline depth of the transform unit";
+        // Two lanes (module doc, "Meeting the targets").
+        transform_throughput: u32 = 2; int(1, 256), "samples/cycle",
+            "samples the transform unit accepts per cycle (also fetch and kernel-setup lanes)";
+        tile_size: u32 = 8; int(1, 256), "samples",
+            "side of a destination tile; the source block side is `tile_size` / `supersample` pixels";
+        // The measured working set of 640x480 room with the prefetch, up to
+        // 903 tiles, rounded up to 1 MiB (module doc).
+        dest_cache_bytes: u64 = 1024 * 1024; int(1, 1 << 34), "bytes", "capacity of the destination tile cache";
+        // One full reference column of A-buffer blocks (1496 samples of a
+        // 2x2 640x480 reference with its enlarged field of view: 187 blocks
+        // of about 1.3 KB): the sweeps of traversal rule 6 run whole
+        // columns, and consecutive lines reuse a column's blocks. At 64 KiB
+        // the 640x480 room frames read every block about twice (36.9
+        // against 17.7 MB of reference fetch per frame).
+        source_cache_bytes: u64 = 256 * 1024; int(1, 1 << 34), "bytes", "capacity of the source (reference) cache";
+        dram_peak_bytes_per_cycle: u64 = 16; int(1, 1 << 20), "bytes/cycle",
+            "peak DRAM bandwidth available to the warper";
+        dram_latency_cycles: u64 = 12; int(0, 1_000_000), "cycles",
+            "cycles from a DRAM request's acceptance to its first data";
+        dram_burst_bytes: u64 = 32; Range::PowerOfTwo { min: 1, max: 4096 }, "bytes",
+            "DRAM transfer granule; requests are rounded up to whole bursts";
+        dram_max_outstanding: u32 = 16; int(1, 1 << 16), "requests", "DRAM requests outstanding at once";
+        /// `ideal` is the fixed-latency, one-bus model of `mem::dram`;
+        /// `dramsim3` is provided by the `postwarp` crate's `dramsim3`
+        /// feature.
+        dram_backend: String = "ideal".into(); Range::Choice(DRAM_BACKENDS), DRAM_BACKENDS_UNIT,
+            "what times DRAM requests: `ideal` (`dram_latency_cycles`, one bus at `dram_peak_bytes_per_cycle`) or \
+             `dramsim3` (a closed loop through DRAMsim3; needs a build with `--features dramsim3`; `docs/memory.md`)";
+        // DRAMsim3 has no SDR SDRAM; its oldest, slowest part is the
+        // first-generation LPDDR at 208 MHz (docs/memory.md).
+        dram_config: String = "lpddr_2Gb_x16".into();
+            Range::Text {
+                valid: "a shipped DRAMsim3 ini's name (`configs/dram/`, with or without `.ini`) or a path to an ini file",
+                check: |s| !s.is_empty(),
+            },
+            "name|path",
+            "the DRAMsim3 configuration (only with `dram_backend = \"dramsim3\"`)";
+        dram_address_mapping: String = String::new();
+            Range::Text { valid: ADDRESS_MAPPING_RULE, check: |m| m.is_empty() || check_address_mapping(m).is_ok() },
+            "text",
+            "DRAMsim3's `address_mapping` overriding the ini's (e.g. `rochrababgco`: fields ch ra bg ba ro co, most \
+             significant first); \"\" = the ini's (only with `dram_backend = \"dramsim3\"`)";
+        clock_hz: u64 = 100_000_000; int(1, 1 << 40), "Hz",
+            "engine clock frequency (used for `frame_rate_at_clock_hz`)";
+        target_frame_rate_hz: f64 = 30.0; Range::Real { min: 0.0, min_open: true, max: 10_000.0 }, "Hz",
+            "derived frames per second to sustain, per view (used for `dram_gbps_at_target_rate`)";
+        display_width: u32 = 640; int(1, 16384), "pixels",
+            "display width per view; the preset's target, not read by the simulation (the trace's frame size is \
+             simulated)";
+        display_height: u32 = 480; int(1, 16384), "pixels", "display height per view; as `display_width`";
+        views: u32 = 1; int(1, 8), "views",
+            "views rendered per frame time by the one warper (2 = stereo HMD); scales both derived rates";
+        references_per_frame: u32 = 2; int(1, 16), "references",
+            "reference frames warped per derived frame; the preset's assumption, not read by the simulation (the \
+             trace lists each frame's references)";
+        /// TR98: 1.4 for the plates, 2.3 for the video.
+        threshold: f64 = 1.4; real(0.01, 100.0), "ratio of E",
+            "discontinuity threshold: one surface iff warped distance ≤ threshold × expected spacing";
+        slope_tol: f64 = 2.0; real(0.0, 1000.0), "1",
+            "Z tolerance, slope term: tol = slope_tol × |slopes|₁ + rel_tol × 1/Z";
+        rel_tol: f64 = 0.01; real(0.0, 1.0), "fraction of 1/Z", "Z tolerance, relative term";
+        better_margin: f64 = 0.05; real(0.0, 10.0), "fraction",
+            "another reference is better only if its |cos| of view angle is larger by this fraction";
+        hole_far_distance: u32 = 4; int(1, 63), "samples", "hole-fill distance past which the two far taps join";
+        hole_far_offset: u32 = 4; int(1, 64), "samples", "offset of the far hole-fill taps along the previous line";
+        hole_max_distance: u32 = 63; int(1, 255), "samples", "saturation of the 6-bit hole-fill distance plane";
+        hole_fill_per_cycle: u32 = 4; int(1, 256), "samples/cycle",
+            "derived samples the hole-fill unit visits per cycle";
+        packer_pixels_per_cycle: u32 = 1; int(1, 256), "pixels/cycle",
+            "pixels the A-buffer packer packs per cycle: a tile occupies it ⌈(tile_size/supersample)² / lanes⌉ cycles";
+        tile_prefetch_distance: u32 = 2; int(0, 1 << 16), "lines",
+            "lines ahead of the sweep front at which the schedule loads a destination tile (`units/tile_prefetch.rs`; \
+             reference lines for the warp, derived lines for the hole fill); 0 = no prefetch, every tile on demand";
+        composite_miss_queue: u32 = 4; int(0, 64), "stamps",
+            "stamps that wait in the compositor's miss queue for a tile while later stamps on resident tiles go on \
+             (`units/composite.rs` rule 6); 0 = block in order";
+        fallback_fill: bool = true; Range::Bool, "bool",
+            "after the last warp, the hole fill's fallback pass fills the samples no epipolar pass reached \
+             (`units/fallback_fill.rs`)";
+    }
+}
+
+/// Bytes of one destination tile in the cache.
+fn tile_bytes(c: &EngineConfig) -> u64 {
+    u64::from(c.tile_size).pow(2) * CACHE_BYTES_PER_SAMPLE
+}
+
+/// The rules between knobs, checked after every knob's own range, in
+/// order. (That `tile_size` is a multiple of the trace's `supersample` is
+/// checked by `Engine::new`, once the trace's super-sampling applies.)
+pub const CROSS_RULES: &[CrossRule<EngineConfig>] = &[
+    CrossRule {
+        name: "kernel_within_tile",
+        rule: "`kernel_limit` ≤ `tile_size`, so a stamp touches at most 4 tiles",
+        check: |c| {
+            if c.kernel_limit > c.tile_size {
+                return Err(format!(
+                    "kernel_limit = {}: expected at most tile_size ({}) so that one stamp touches at most 4 tiles",
+                    c.kernel_limit, c.tile_size
+                ));
+            }
+            Ok(())
+        },
+    },
+    CrossRule {
+        name: "eight_tiles_cached",
+        rule: "`dest_cache_bytes` holds at least 8 tiles of `tile_size`² × 16 B (a stamp and the hole-fill taps need \
+               them at once)",
+        check: |c| {
+            if c.dest_cache_bytes.checked_div(tile_bytes(c)).is_none_or(|tiles| tiles < 8) {
+                return Err(format!(
+                    "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): a stamp and the hole-fill taps need them at once",
+                    c.dest_cache_bytes,
+                    8 * tile_bytes(c)
+                ));
+            }
+            Ok(())
+        },
+    },
+];
 
 /// Knobs renamed since they were introduced: (old name, new name). Files
 /// that use the old name still load (the new name wins if both are
@@ -230,130 +295,11 @@ pub fn current_knob_name(name: &str) -> &str {
     RENAMED_KNOBS.iter().find(|(old, _)| *old == name).map_or(name, |(_, new)| new)
 }
 
-/// (name, unit, description) of every knob, in field order, for reports and
-/// docs.
-pub const KNOBS: &[(&str, &str, &str)] = &[
-    ("supersample", "samples", "super-samples per pixel along each axis"),
-    ("abuffer_fragments", "fragments/pixel", "A-buffer fragments per pixel in memory (0 = raw samples)"),
-    ("kernel_limit", "samples", "largest kernel side the rasterizer draws"),
-    ("rects_per_cycle", "rectangles/cycle", "rectangles the rasterizer accepts per cycle"),
-    ("transform_latency", "cycles", "pipeline depth of the transform unit"),
-    ("transform_throughput", "samples/cycle", "samples the transform unit accepts per cycle"),
-    ("tile_size", "samples", "side of a destination tile"),
-    ("dest_cache_bytes", "bytes", "capacity of the destination tile cache"),
-    ("source_cache_bytes", "bytes", "capacity of the source (reference) cache"),
-    ("dram_peak_bytes_per_cycle", "bytes/cycle", "peak DRAM bandwidth available to the warper"),
-    ("dram_latency_cycles", "cycles", "cycles from a DRAM request's acceptance to its first data"),
-    ("dram_burst_bytes", "bytes", "DRAM transfer granule; requests are rounded up to whole bursts"),
-    ("dram_max_outstanding", "requests", "DRAM requests outstanding at once"),
-    (
-        "dram_backend",
-        "ideal|dramsim3",
-        "what times DRAM requests: `ideal` (dram_latency_cycles, one bus at dram_peak_bytes_per_cycle) or `dramsim3` \
-         (closed loop through DRAMsim3; build with --features dramsim3)",
-    ),
-    (
-        "dram_config",
-        "name|path",
-        "DRAMsim3 ini: a shipped name (configs/dram/, e.g. DDR4_8Gb_x8_3200) or a path to an .ini file",
-    ),
-    (
-        "dram_address_mapping",
-        "text",
-        "DRAMsim3 address_mapping (e.g. rochrababgco: fields ch ra bg ba ro co, most significant first) overriding \
-         the ini's; empty = the ini's",
-    ),
-    ("clock_hz", "Hz", "engine clock frequency"),
-    ("target_frame_rate_hz", "Hz", "derived frames per second to sustain, per view"),
-    ("display_width", "pixels", "display width per view"),
-    ("display_height", "pixels", "display height per view"),
-    ("views", "views", "views rendered per frame time by the one warper (2 = stereo HMD)"),
-    ("references_per_frame", "references", "reference frames warped per derived frame"),
-    (
-        "threshold",
-        "ratio of E",
-        "discontinuity threshold: one surface iff warped distance <= threshold x expected spacing",
-    ),
-    ("slope_tol", "1", "Z tolerance slope term: tol = slope_tol x |slopes|_1 + rel_tol x 1/Z"),
-    ("rel_tol", "fraction of 1/Z", "Z tolerance relative term"),
-    (
-        "better_margin",
-        "fraction",
-        "another reference is better only if its |cos| of view angle is larger by this fraction",
-    ),
-    ("hole_far_distance", "samples", "hole-fill distance past which the two far taps join"),
-    ("hole_far_offset", "samples", "offset of the far hole-fill taps along the previous line"),
-    ("hole_max_distance", "samples", "saturation of the 6-bit hole-fill distance plane"),
-    ("hole_fill_per_cycle", "samples/cycle", "derived samples the hole-fill unit visits per cycle"),
-    ("packer_pixels_per_cycle", "pixels/cycle", "pixels the A-buffer packer packs per cycle"),
-    (
-        "tile_prefetch_distance",
-        "lines",
-        "lines ahead of the sweep front at which the schedule loads a destination tile (0 = on demand only)",
-    ),
-    (
-        "composite_miss_queue",
-        "stamps",
-        "stamps waiting for a tile while later stamps on resident tiles proceed (0 = block in order)",
-    ),
-    (
-        "fallback_fill",
-        "bool",
-        "after the last warp, fill the samples no epipolar pass reached (the hole fill's pass in reverse order)",
-    ),
-];
-
-impl Default for EngineConfig {
-    /// The `mark1998` preset.
-    fn default() -> Self {
-        EngineConfig {
-            supersample: 2,
-            abuffer_fragments: 3,
-            kernel_limit: 4,
-            rects_per_cycle: 2,
-            transform_latency: 12,
-            // Two lanes (module doc, "Meeting the targets").
-            transform_throughput: 2,
-            tile_size: 8,
-            // The measured working set of 640x480 room with the prefetch,
-            // up to 903 tiles, rounded up to 1 MiB (module doc).
-            dest_cache_bytes: 1024 * 1024,
-            // One full reference column of A-buffer blocks (1496 samples of
-            // a 2x2 640x480 reference with its enlarged field of view: 187
-            // blocks of about 1.3 KB): the sweeps of traversal rule 6 run
-            // whole columns, and consecutive lines reuse a column's blocks.
-            // At 64 KiB the 640x480 room frames read every block about
-            // twice (36.9 against 17.7 MB of reference fetch per frame).
-            source_cache_bytes: 256 * 1024,
-            dram_peak_bytes_per_cycle: 16,
-            dram_latency_cycles: 12,
-            dram_burst_bytes: 32,
-            dram_max_outstanding: 16,
-            dram_backend: "ideal".into(),
-            // DRAMsim3 has no SDR SDRAM; its oldest, slowest part is the
-            // first-generation LPDDR at 208 MHz (docs/memory.md).
-            dram_config: "lpddr_2Gb_x16".into(),
-            dram_address_mapping: String::new(),
-            clock_hz: 100_000_000,
-            target_frame_rate_hz: 30.0,
-            display_width: 640,
-            display_height: 480,
-            views: 1,
-            references_per_frame: 2,
-            threshold: 1.4,
-            slope_tol: 2.0,
-            rel_tol: 0.01,
-            better_margin: 0.05,
-            hole_far_distance: 4,
-            hole_far_offset: 4,
-            hole_max_distance: 63,
-            hole_fill_per_cycle: 4,
-            packer_pixels_per_cycle: 1,
-            tile_prefetch_distance: 2,
-            composite_miss_queue: 4,
-            fallback_fill: true,
-        }
-    }
+/// Check `v` against the range of hardware knob `name` ([`Knob::check`]).
+pub fn check_knob(name: &str, v: KnobValue) -> Result<(), String> {
+    let k: &Knob<EngineConfig> =
+        crate::knob::find(KNOBS, name).ok_or_else(|| format!("{name}: not a hardware knob"))?;
+    k.check(&v)
 }
 
 impl EngineConfig {
@@ -397,78 +343,10 @@ impl EngineConfig {
         }
     }
 
-    /// Check the knobs; the message starts with the knob's name.
+    /// Check the knobs: each against its range in [`KNOBS`], then
+    /// [`CROSS_RULES`]; the message starts with the knob's name.
     pub fn validate(&self) -> Result<(), String> {
-        let range = |name: &str, v: u64, lo: u64, hi: u64, unit: &str| {
-            if (lo..=hi).contains(&v) { Ok(()) } else { Err(format!("{name} = {v}: expected {lo} to {hi} {unit}")) }
-        };
-        // The A-buffer packs at most 16 samples per pixel (a 16-bit mask).
-        range("supersample", self.supersample.into(), 1, 4, "samples")?;
-        range("abuffer_fragments", self.abuffer_fragments.into(), 0, 16, "fragments/pixel")?;
-        range("kernel_limit", self.kernel_limit.into(), 1, 64, "samples")?;
-        range("rects_per_cycle", self.rects_per_cycle.into(), 1, 256, "rectangles/cycle")?;
-        range("transform_latency", self.transform_latency.into(), 1, 1024, "cycles")?;
-        range("transform_throughput", self.transform_throughput.into(), 1, 256, "samples/cycle")?;
-        range("tile_size", self.tile_size.into(), 1, 256, "samples")?;
-        let tile_bytes = u64::from(self.tile_size).pow(2) * CACHE_BYTES_PER_SAMPLE;
-        range("dest_cache_bytes", self.dest_cache_bytes, tile_bytes, 1 << 34, "bytes (at least one tile)")?;
-        range("source_cache_bytes", self.source_cache_bytes, 1, 1 << 34, "bytes")?;
-        self.dram().validate()?;
-        if !DRAM_BACKENDS.contains(&self.dram_backend.as_str()) {
-            return Err(format!(
-                "dram_backend = \"{}\": expected one of {}",
-                self.dram_backend,
-                DRAM_BACKENDS.iter().map(|b| format!("\"{b}\"")).collect::<Vec<_>>().join(", ")
-            ));
-        }
-        if self.dram_config.is_empty() {
-            return Err("dram_config = \"\": expected a shipped DRAMsim3 ini's name or a path".into());
-        }
-        if !self.dram_address_mapping.is_empty() {
-            check_address_mapping(&self.dram_address_mapping)?;
-        }
-        range("clock_hz", self.clock_hz, 1, 1 << 40, "Hz")?;
-        let fps = self.target_frame_rate_hz;
-        if !(fps.is_finite() && fps > 0.0 && fps <= 10_000.0) {
-            return Err(format!("target_frame_rate_hz = {fps}: expected a positive number up to 10000 Hz"));
-        }
-        range("display_width", self.display_width.into(), 1, 16384, "pixels")?;
-        range("display_height", self.display_height.into(), 1, 16384, "pixels")?;
-        range("views", self.views.into(), 1, 8, "views")?;
-        range("references_per_frame", self.references_per_frame.into(), 1, 16, "references")?;
-        let real = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
-            if v.is_finite() && (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(format!("{name} = {v}: expected {lo} to {hi} {unit}"))
-            }
-        };
-        real("threshold", self.threshold, 0.01, 100.0, "(ratio of E)")?;
-        real("slope_tol", self.slope_tol, 0.0, 1000.0, "(ratio)")?;
-        real("rel_tol", self.rel_tol, 0.0, 1.0, "(fraction of 1/Z)")?;
-        real("better_margin", self.better_margin, 0.0, 10.0, "(fraction)")?;
-        range("hole_far_distance", self.hole_far_distance.into(), 1, 63, "samples")?;
-        range("hole_far_offset", self.hole_far_offset.into(), 1, 64, "samples")?;
-        range("hole_max_distance", self.hole_max_distance.into(), 1, 255, "samples")?;
-        range("hole_fill_per_cycle", self.hole_fill_per_cycle.into(), 1, 256, "samples/cycle")?;
-        range("packer_pixels_per_cycle", self.packer_pixels_per_cycle.into(), 1, 256, "pixels/cycle")?;
-        range("tile_prefetch_distance", self.tile_prefetch_distance.into(), 0, 1 << 16, "lines")?;
-        range("composite_miss_queue", self.composite_miss_queue.into(), 0, 64, "stamps")?;
-        if self.kernel_limit > self.tile_size {
-            return Err(format!(
-                "kernel_limit = {}: expected at most tile_size ({}) so that one stamp touches at most 4 tiles",
-                self.kernel_limit, self.tile_size
-            ));
-        }
-        let tiles = self.dest_cache_bytes / tile_bytes;
-        if tiles < 8 {
-            return Err(format!(
-                "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): a stamp and the hole-fill taps need them at once",
-                self.dest_cache_bytes,
-                8 * tile_bytes
-            ));
-        }
-        Ok(())
+        crate::knob::check_all(KNOBS, CROSS_RULES, self)
     }
 }
 
@@ -557,10 +435,10 @@ mod tests {
     #[test]
     fn every_knob_is_listed_and_has_an_invalid_case() {
         // A bool knob has no invalid value.
-        let listed: Vec<&str> = KNOBS.iter().filter(|k| k.1 != "bool").map(|k| k.0).collect();
+        let listed: Vec<&str> = KNOBS.iter().filter(|k| k.unit != "bool").map(|k| k.name).collect();
         let tested: Vec<&str> = invalid_cases().iter().map(|k| k.0).collect();
         assert_eq!(listed, tested);
-        assert!(KNOBS.iter().all(|(_, unit, desc)| !unit.is_empty() && !desc.is_empty()));
+        assert!(KNOBS.iter().all(|k| !k.unit.is_empty() && !k.description.is_empty()));
         // Field count check: Debug prints one `name: value` per field.
         let fields = format!("{:?}", EngineConfig::default()).matches(": ").count();
         assert_eq!(fields, KNOBS.len());

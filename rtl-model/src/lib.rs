@@ -22,6 +22,7 @@ pub mod fifo;
 pub mod fixed;
 pub mod frame_stats;
 pub mod hw_reference;
+pub mod knob;
 pub mod lru;
 pub mod mem;
 pub mod sample_image;

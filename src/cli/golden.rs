@@ -75,7 +75,7 @@ pub fn config(a: &Args) -> anyhow::Result<GoldenConfig> {
         None => GoldenConfig::default(),
         Some(p) => {
             let text = crate::io_util::read_text(p, "golden-model configuration (TOML)")?;
-            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?
+            GoldenConfig::from_toml(&text).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?
         }
     };
     if let Some(v) = a.threshold {

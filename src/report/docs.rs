@@ -56,7 +56,15 @@ pub fn key_lists() -> String {
 /// `page` with its generated part replaced by [`key_lists`], or `None` if
 /// the marks are missing.
 pub fn regenerate(page: &str) -> Option<String> {
-    let a = page.find(BEGIN)? + BEGIN.len();
-    let b = page.find(END)?;
-    (a <= b).then(|| format!("{}\n{}{}", &page[..a], key_lists(), &page[b..]))
+    splice(page, BEGIN, END, &key_lists())
+}
+
+/// `page` with the text between marks `begin` and `end` replaced by
+/// `body` (after a line break), or `None` if a mark is missing; the docs
+/// generated from code tables (these key lists, the knob tables of
+/// `crate::knobs::docs`) are spliced in this way.
+pub fn splice(page: &str, begin: &str, end: &str, body: &str) -> Option<String> {
+    let a = page.find(begin)? + begin.len();
+    let b = a + page[a..].find(end)?;
+    Some(format!("{}\n{}{}", &page[..a], body, &page[b..]))
 }

@@ -389,7 +389,7 @@ fn reference_keys() -> Vec<KeyDoc> {
 }
 
 fn config_keys() -> Vec<KeyDoc> {
-    crate::golden::config::KNOBS.iter().map(|(k, unit, d)| scalar(k, unit, Reduce::Once, d)).collect()
+    crate::golden::config::KNOBS.iter().map(|k| scalar(k.name, k.unit, Reduce::Once, k.description)).collect()
 }
 
 fn total_keys() -> Vec<KeyDoc> {

@@ -217,7 +217,7 @@ fn mean_keys() -> Vec<KeyDoc> {
 }
 
 fn config_keys() -> Vec<KeyDoc> {
-    KNOBS.iter().map(|(k, unit, d)| scalar(k, unit, Reduce::Once, d)).collect()
+    KNOBS.iter().map(|k| scalar(k.name, k.unit, Reduce::Once, k.description)).collect()
 }
 
 /// Top-level keys.

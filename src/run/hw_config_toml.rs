@@ -1,60 +1,23 @@
 //! Hardware configuration files: TOML with the knob names of
-//! `postwarp_rtl::config::KNOBS` as keys, over a preset.
+//! `postwarp_rtl::config::KNOBS` as keys, over a preset; and the `config`
+//! object of `report.json`. Values go through the knob table generically
+//! (`crate::knobs`), so a new knob needs no code here.
 //!
 //! Rules: every key optional; an unknown key, a value of the wrong type or
 //! an invalid value is rejected with a message naming the file and the knob;
-//! `preset = "NAME"` in the file picks the base (default `mark1998`).
+//! `preset = "NAME"` in the file picks the base (default `mark1998`); a
+//! renamed knob ([`RENAMED_KNOBS`](postwarp_rtl::config::RENAMED_KNOBS))
+//! loads under its old name, but not under both.
 
 use anyhow::{anyhow, bail};
 use postwarp_rtl::config::{EngineConfig, KNOBS, current_knob_name};
+use postwarp_rtl::knob::get_by_name;
 use std::path::Path;
 
 /// Set knob `key` of `c` from a TOML value; the error says what was
 /// expected (the caller names the file and the key).
 pub fn set(c: &mut EngineConfig, key: &str, v: &toml::Value) -> Result<(), String> {
-    let int = || v.as_integer().filter(|&n| n >= 0).map(|n| n as u64).ok_or("expected a non-negative integer");
-    let u32v = || int().and_then(|n| u32::try_from(n).map_err(|_| "expected an integer below 2^32"));
-    let real = || v.as_float().or_else(|| v.as_integer().map(|n| n as f64)).ok_or("expected a number");
-    let boolean = || v.as_bool().ok_or("expected true or false");
-    let text = || v.as_str().map(str::to_string).ok_or("expected a string in quotes");
-    match key {
-        "supersample" => c.supersample = u32v()?,
-        "abuffer_fragments" => c.abuffer_fragments = u32v()?,
-        "kernel_limit" => c.kernel_limit = u32v()?,
-        "rects_per_cycle" => c.rects_per_cycle = u32v()?,
-        "transform_latency" => c.transform_latency = u32v()?,
-        "transform_throughput" => c.transform_throughput = u32v()?,
-        "tile_size" => c.tile_size = u32v()?,
-        "dest_cache_bytes" => c.dest_cache_bytes = int()?,
-        "source_cache_bytes" => c.source_cache_bytes = int()?,
-        "dram_peak_bytes_per_cycle" => c.dram_peak_bytes_per_cycle = int()?,
-        "dram_latency_cycles" => c.dram_latency_cycles = int()?,
-        "dram_burst_bytes" => c.dram_burst_bytes = int()?,
-        "dram_max_outstanding" => c.dram_max_outstanding = u32v()?,
-        "dram_backend" => c.dram_backend = text()?,
-        "dram_config" => c.dram_config = text()?,
-        "dram_address_mapping" => c.dram_address_mapping = text()?,
-        "clock_hz" => c.clock_hz = int()?,
-        "target_frame_rate_hz" => c.target_frame_rate_hz = real()?,
-        "display_width" => c.display_width = u32v()?,
-        "display_height" => c.display_height = u32v()?,
-        "views" => c.views = u32v()?,
-        "references_per_frame" => c.references_per_frame = u32v()?,
-        "threshold" => c.threshold = real()?,
-        "slope_tol" => c.slope_tol = real()?,
-        "rel_tol" => c.rel_tol = real()?,
-        "better_margin" => c.better_margin = real()?,
-        "hole_far_distance" => c.hole_far_distance = u32v()?,
-        "hole_far_offset" => c.hole_far_offset = u32v()?,
-        "hole_max_distance" => c.hole_max_distance = u32v()?,
-        "hole_fill_per_cycle" => c.hole_fill_per_cycle = u32v()?,
-        "packer_pixels_per_cycle" => c.packer_pixels_per_cycle = u32v()?,
-        "tile_prefetch_distance" => c.tile_prefetch_distance = u32v()?,
-        "composite_miss_queue" => c.composite_miss_queue = u32v()?,
-        "fallback_fill" => c.fallback_fill = boolean()?,
-        _ => return Err(format!("unknown knob (known: {})", KNOBS.iter().map(|k| k.0).collect::<Vec<_>>().join(", "))),
-    }
-    Ok(())
+    crate::knobs::set_toml(KNOBS, c, key, v)
 }
 
 /// The configuration of `--config FILE` / `--preset NAME` (at most one
@@ -104,63 +67,12 @@ pub fn parse(text: &str) -> anyhow::Result<EngineConfig> {
 
 /// The value of knob `key` of `c` (a name of [`KNOBS`]).
 pub fn get(c: &EngineConfig, key: &str) -> Option<toml::Value> {
-    use toml::Value as V;
-    let i = |n: u64| V::Integer(i64::try_from(n).unwrap_or(i64::MAX));
-    Some(match key {
-        "supersample" => i(c.supersample.into()),
-        "abuffer_fragments" => i(c.abuffer_fragments.into()),
-        "kernel_limit" => i(c.kernel_limit.into()),
-        "rects_per_cycle" => i(c.rects_per_cycle.into()),
-        "transform_latency" => i(c.transform_latency.into()),
-        "transform_throughput" => i(c.transform_throughput.into()),
-        "tile_size" => i(c.tile_size.into()),
-        "dest_cache_bytes" => i(c.dest_cache_bytes),
-        "source_cache_bytes" => i(c.source_cache_bytes),
-        "dram_peak_bytes_per_cycle" => i(c.dram_peak_bytes_per_cycle),
-        "dram_latency_cycles" => i(c.dram_latency_cycles),
-        "dram_burst_bytes" => i(c.dram_burst_bytes),
-        "dram_max_outstanding" => i(c.dram_max_outstanding.into()),
-        "dram_backend" => V::String(c.dram_backend.clone()),
-        "dram_config" => V::String(c.dram_config.clone()),
-        "dram_address_mapping" => V::String(c.dram_address_mapping.clone()),
-        "clock_hz" => i(c.clock_hz),
-        "target_frame_rate_hz" => V::Float(c.target_frame_rate_hz),
-        "display_width" => i(c.display_width.into()),
-        "display_height" => i(c.display_height.into()),
-        "views" => i(c.views.into()),
-        "references_per_frame" => i(c.references_per_frame.into()),
-        "threshold" => V::Float(c.threshold),
-        "slope_tol" => V::Float(c.slope_tol),
-        "rel_tol" => V::Float(c.rel_tol),
-        "better_margin" => V::Float(c.better_margin),
-        "hole_far_distance" => i(c.hole_far_distance.into()),
-        "hole_far_offset" => i(c.hole_far_offset.into()),
-        "hole_max_distance" => i(c.hole_max_distance.into()),
-        "hole_fill_per_cycle" => i(c.hole_fill_per_cycle.into()),
-        "packer_pixels_per_cycle" => i(c.packer_pixels_per_cycle.into()),
-        "tile_prefetch_distance" => i(c.tile_prefetch_distance.into()),
-        "composite_miss_queue" => i(c.composite_miss_queue.into()),
-        "fallback_fill" => V::Boolean(c.fallback_fill),
-        _ => return None,
-    })
-}
-
-fn json_of(v: &toml::Value) -> serde_json::Value {
-    match v {
-        toml::Value::Integer(n) => serde_json::Value::from(*n),
-        toml::Value::Float(x) => serde_json::Value::from(*x),
-        toml::Value::Boolean(b) => serde_json::Value::Bool(*b),
-        toml::Value::String(t) => serde_json::Value::String(t.clone()),
-        other => serde_json::Value::String(other.to_string()),
-    }
+    get_by_name(KNOBS, c, key).map(|v| crate::knobs::to_toml(&v))
 }
 
 /// Every knob as `{name: value}`, in [`KNOBS`] order, for `report.json`.
 pub fn to_json_map(c: &EngineConfig) -> serde_json::Map<String, serde_json::Value> {
-    KNOBS
-        .iter()
-        .map(|(name, _, _)| (name.to_string(), json_of(&get(c, name).expect("every knob has a value"))))
-        .collect()
+    crate::knobs::to_json_map(KNOBS, c)
 }
 
 /// [`to_json_map`] as a value.
@@ -169,20 +81,12 @@ pub fn to_json(c: &EngineConfig) -> serde_json::Value {
 }
 
 /// The configuration a `config` object of `report.json` describes (knobs
-/// absent from it keep `mark1998`'s values).
+/// absent from it keep `mark1998`'s values; old names are read as the
+/// current ones).
 pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::Result<EngineConfig> {
     let mut c = EngineConfig::default();
     for (k, v) in m {
-        let t = match v {
-            serde_json::Value::Number(n) if n.is_i64() || n.is_u64() => {
-                toml::Value::Integer(n.as_i64().ok_or_else(|| anyhow!("{k}: {n} is too large"))?)
-            }
-            serde_json::Value::Number(n) => toml::Value::Float(n.as_f64().unwrap_or(f64::NAN)),
-            serde_json::Value::Bool(b) => toml::Value::Boolean(*b),
-            serde_json::Value::String(t) => toml::Value::String(t.clone()),
-            other => bail!("{k}: {other} is not a number, a boolean or a string"),
-        };
-        set(&mut c, current_knob_name(k), &t).map_err(|e| anyhow!("{k}: {e}"))?;
+        crate::knobs::set_json(KNOBS, &mut c, current_knob_name(k), v).map_err(|e| anyhow!("{k}: {e}"))?;
     }
     Ok(c)
 }
@@ -195,9 +99,9 @@ pub fn dump(c: &EngineConfig, header: &str) -> String {
         s.push_str(&format!("# {line}\n"));
     }
     s.push_str("# Every knob of the hardware model (docs/units.md); `postwarp simulate --config FILE` reads it.\n");
-    for (name, unit, desc) in KNOBS {
-        let v = get(c, name).expect("every knob has a value");
-        s.push_str(&format!("\n# {desc} ({unit})\n{name} = {v}\n"));
+    for k in KNOBS {
+        let v = crate::knobs::to_toml(&(k.get)(c));
+        s.push_str(&format!("\n# {} ({})\n{} = {v}\n", k.description, k.unit, k.name));
     }
     s
 }
@@ -230,8 +134,9 @@ mod tests {
     #[test]
     fn every_knob_is_settable_and_reported() {
         let mut c = EngineConfig::default();
-        for (name, unit, _) in KNOBS {
-            let v = match *unit {
+        for k in KNOBS {
+            let (name, unit) = (k.name, k.unit);
+            let v = match unit {
                 "bool" => toml::Value::Boolean(false),
                 "ideal|dramsim3" | "name|path" | "text" => toml::Value::String("x".into()),
                 _ => toml::Value::Integer(1),
@@ -277,7 +182,8 @@ mod tests {
             c.rel_tol = 0.1 + 0.2;
             let text = dump(&c, "made by a test\nsecond line");
             assert!(text.starts_with("# made by a test\n# second line\n"), "{text}");
-            for (name, unit, _) in KNOBS {
+            for k in KNOBS {
+                let (name, unit) = (k.name, k.unit);
                 assert!(text.contains(&format!("\n{name} = ")), "{name} missing");
                 assert!(text.contains(&format!("({unit})\n{name} = ")), "{name}: no unit comment");
             }

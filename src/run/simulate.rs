@@ -404,9 +404,8 @@ fn config_name(cfg: &EngineConfig) -> String {
         let base = EngineConfig::preset(p).expect("presets exist");
         let differ: Vec<&str> = postwarp_rtl::config::KNOBS
             .iter()
-            .map(|k| k.0)
-            .filter(|k| *k != "supersample")
-            .filter(|k| super::hw_config_toml::get(cfg, k) != super::hw_config_toml::get(&base, k))
+            .filter(|k| k.name != "supersample" && (k.get)(cfg) != (k.get)(&base))
+            .map(|k| k.name)
             .collect();
         if best.as_ref().is_none_or(|b| differ.len() < b.0) {
             best = Some((differ.len(), p, differ));

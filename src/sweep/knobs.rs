@@ -1,7 +1,8 @@
 //! The `[golden]` and `[hardware]` tables of a sweep specification: which
 //! keys exist, how one value is checked, how a combination of values
 //! becomes a [`GoldenConfig`] or an [`EngineConfig`], and the
-//! `results.csv` column (with its unit) of each knob.
+//! `results.csv` column (with its unit) of each knob. Keys, units and
+//! values come from the engines' knob tables (`crate::knobs`).
 //!
 //! Rules:
 //! 1. `[golden]` takes every golden-model knob (`docs/golden.md`) except
@@ -41,12 +42,12 @@ pub fn hardware_name(golden: &str) -> Option<&'static str> {
 
 /// Keys `[golden]` accepts, in canonical order.
 pub fn golden_keys() -> impl Iterator<Item = &'static str> {
-    GOLDEN_KNOBS.iter().map(|k| k.0).filter(|k| !matches!(*k, "reconstruction" | "hole_fill"))
+    GOLDEN_KNOBS.iter().map(|k| k.name).filter(|k| !matches!(*k, "reconstruction" | "hole_fill"))
 }
 
 /// Keys `[hardware]` accepts, in canonical order (`preset` first).
 pub fn hardware_keys() -> impl Iterator<Item = &'static str> {
-    std::iter::once("preset").chain(HW_KNOBS.iter().map(|k| k.0).filter(|k| *k != "supersample"))
+    std::iter::once("preset").chain(HW_KNOBS.iter().map(|k| k.name).filter(|k| *k != "supersample"))
 }
 
 /// Why a `[golden]` key is refused, or `None` if it is a knob.
@@ -70,16 +71,13 @@ pub fn hardware_key_error(key: &str) -> Option<String> {
     }
 }
 
-/// A golden configuration from `(knob, value)` pairs over the defaults.
+/// A golden configuration from `(knob, value)` pairs over the defaults,
+/// validated.
 pub fn golden_config(values: &[(&str, &toml::Value)]) -> Result<GoldenConfig, String> {
-    let mut t = toml::Table::new();
+    let mut cfg = GoldenConfig::default();
     for (k, v) in values {
-        t.insert((*k).to_string(), (*v).clone());
+        crate::knobs::set_toml(GOLDEN_KNOBS, &mut cfg, k, v)?;
     }
-    let cfg: GoldenConfig = toml::Value::Table(t).try_into().map_err(|e: toml::de::Error| {
-        let m = e.message().trim().to_string();
-        format!("expected {}", m.strip_prefix("invalid type: ").unwrap_or(&m))
-    })?;
     cfg.validate()?;
     Ok(cfg)
 }
@@ -149,15 +147,15 @@ pub fn column(knob: &str, unit: &str) -> String {
 
 /// Unit of a golden knob.
 pub fn golden_unit(key: &str) -> &'static str {
-    GOLDEN_KNOBS.iter().find(|k| k.0 == key).map_or("", |k| k.1)
+    postwarp_rtl::knob::find(GOLDEN_KNOBS, key).map_or("", |k| k.unit)
 }
 
 /// Unit of a hardware knob (`preset`: a name).
 pub fn hardware_unit(key: &str) -> &'static str {
     if key == "preset" {
-        return "mark1998|hmd2026";
+        return postwarp_rtl::config::PRESETS_UNIT;
     }
-    HW_KNOBS.iter().find(|k| k.0 == key).map_or("", |k| k.1)
+    postwarp_rtl::knob::find(HW_KNOBS, key).map_or("", |k| k.unit)
 }
 
 #[cfg(test)]

@@ -149,25 +149,13 @@ pub struct DramConfig {
 impl DramConfig {
     /// Check the knobs; the message names the knob as `EngineConfig` does.
     pub fn validate(&self) -> Result<(), String> {
-        if !(1..=1 << 20).contains(&self.peak_bytes_per_cycle) {
-            return Err(format!(
-                "dram_peak_bytes_per_cycle = {}: expected 1 to 1048576 bytes/cycle",
-                self.peak_bytes_per_cycle
-            ));
-        }
-        if self.latency_cycles > 1_000_000 {
-            return Err(format!("dram_latency_cycles = {}: expected 0 to 1000000 cycles", self.latency_cycles));
-        }
-        if !(self.burst_bytes.is_power_of_two() && self.burst_bytes <= 4096) {
-            return Err(format!(
-                "dram_burst_bytes = {}: expected a power of two from 1 to 4096 bytes",
-                self.burst_bytes
-            ));
-        }
-        if !(1..=1 << 16).contains(&self.max_outstanding) {
-            return Err(format!("dram_max_outstanding = {}: expected 1 to 65536 requests", self.max_outstanding));
-        }
-        Ok(())
+        // The ranges are the hardware knobs' (`config::KNOBS`).
+        use crate::config::check_knob;
+        use crate::knob::KnobValue::Int;
+        check_knob("dram_peak_bytes_per_cycle", Int(self.peak_bytes_per_cycle))?;
+        check_knob("dram_latency_cycles", Int(self.latency_cycles))?;
+        check_knob("dram_burst_bytes", Int(self.burst_bytes))?;
+        check_knob("dram_max_outstanding", Int(self.max_outstanding as u64))
     }
 
     /// `bytes` rounded up to whole bursts (bytes).
