@@ -181,3 +181,44 @@ fn the_docs_knob_tables_are_the_generated_ones() {
     let golden = docs::golden();
     assert!(GOLDEN_KNOBS.iter().all(|k| golden.contains(&format!("| `{}` |", k.name))));
 }
+
+#[test]
+fn the_golden_configuration_of_a_hardware_one_copies_every_shared_knob_and_fixes_the_rest() {
+    use postwarp::run::hw_config::{golden_config_for, shared_knobs};
+    use postwarp_rtl::knob::{find, get_by_name, set_by_name};
+    let shared: Vec<&str> = shared_knobs().collect();
+    // The knobs both engines have, by name (a knob added to both tables
+    // joins this list; one dropped from either leaves it).
+    assert_eq!(
+        shared,
+        [
+            "threshold",
+            "kernel_limit",
+            "slope_tol",
+            "rel_tol",
+            "better_margin",
+            "abuffer_fragments",
+            "fallback_fill",
+            "hole_far_distance",
+            "hole_far_offset",
+            "hole_max_distance"
+        ]
+    );
+    for name in &shared {
+        let mut hw = EngineConfig::default();
+        let k = find(HW_KNOBS, name).expect("a hardware knob");
+        let v = other_inside(k, &(k.get)(&hw));
+        set_by_name(HW_KNOBS, &mut hw, name, v.clone()).expect("a value of the knob's type");
+        let g = golden_config_for(&hw);
+        assert_eq!(get_by_name(GOLDEN_KNOBS, &g, name), Some(v), "{name} copied");
+        let untouched = golden_config_for(&EngineConfig::default());
+        for other in shared.iter().filter(|o| *o != name) {
+            assert_eq!(get_by_name(GOLDEN_KNOBS, &g, other), get_by_name(GOLDEN_KNOBS, &untouched, other), "{other}");
+        }
+    }
+    let g = golden_config_for(&EngineConfig::default());
+    assert_eq!(
+        (g.over_limit, g.hole_fill, g.warp_order, g.reconstruction),
+        (OverLimit::Clip, true, WarpOrder::Reverse, Reconstruction::AaRect)
+    );
+}

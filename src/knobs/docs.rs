@@ -6,6 +6,7 @@
 //! `docs/report.md`'s key lists are).
 
 use crate::golden::config::{GoldenConfig, KNOBS as GOLDEN_KNOBS};
+use crate::run::hw_config::{fixed_golden_knobs, shared_knobs};
 use postwarp_rtl::config::{CROSS_RULES, EngineConfig, KNOBS as HW_KNOBS, PRESETS};
 use postwarp_rtl::knob::{Knob, KnobValue, Range};
 
@@ -88,6 +89,20 @@ pub fn hardware() -> String {
     s.push_str("\nRules between knobs (`CROSS_RULES`), checked after every knob's own range, in this order:\n\n");
     for r in CROSS_RULES {
         s.push_str(&format!("- `{}`: {}.\n", r.name, r.rule));
+    }
+    s.push_str(
+        "\nThe functional knobs drive the golden model too (`src/run/hw_config.rs`, `golden_config_for`): \
+         the knobs both tables have are copied by name, the others are fixed.\n\n\
+         | golden knob | set to |\n|---|---|\n",
+    );
+    let shared: Vec<String> = shared_knobs().map(|n| format!("`{n}`")).collect();
+    s.push_str(&format!("| {} | the same hardware knobs |\n", shared.join(", ")));
+    for (name, v) in fixed_golden_knobs() {
+        let v = match v {
+            KnobValue::Text(t) => t,
+            other => other.to_string(),
+        };
+        s.push_str(&format!("| `{name}` | `{v}` |\n"));
     }
     s
 }

@@ -10,7 +10,7 @@
 //!    `hole_fill` (the `hole_fills` axis: `none` or `epipolar`).
 //! 2. Golden knobs apply to methods that accept them
 //!    ([`Reconstruction::with_golden_config`](crate::methods::Reconstruction::with_golden_config))
-//!    and, where the hardware has the same knob ([`GOLDEN_TO_HARDWARE`]),
+//!    and, where the hardware has the same knob ([`shared_knobs`]),
 //!    to `hardware` as functional knobs. `over_limit` and `warp_order` do
 //!    not apply to `hardware` (it clips and warps in reverse order).
 //! 3. `[hardware]` takes `preset` and every hardware knob
@@ -18,26 +18,14 @@
 //! 4. A functional knob is set in `[golden]` or in `[hardware]`, not both.
 
 use crate::golden::config::{GoldenConfig, KNOBS as GOLDEN_KNOBS};
+use crate::run::hw_config::shared_knobs;
 use crate::run::hw_config_toml;
 use postwarp_rtl::config::{EngineConfig, KNOBS as HW_KNOBS, PRESETS};
 
-/// Golden knobs the hardware model has too: (golden name, hardware name).
-pub const GOLDEN_TO_HARDWARE: &[(&str, &str)] = &[
-    ("threshold", "threshold"),
-    ("kernel_limit", "kernel_limit"),
-    ("slope_tol", "slope_tol"),
-    ("rel_tol", "rel_tol"),
-    ("better_margin", "better_margin"),
-    ("abuffer_fragments", "abuffer_fragments"),
-    ("hole_far_distance", "hole_far_distance"),
-    ("hole_far_offset", "hole_far_offset"),
-    ("hole_max_distance", "hole_max_distance"),
-    ("fallback_fill", "fallback_fill"),
-];
-
-/// The hardware knob a golden knob sets, if any.
+/// The hardware knob a golden knob sets, if any: the same name, when both
+/// engines have it ([`shared_knobs`]).
 pub fn hardware_name(golden: &str) -> Option<&'static str> {
-    GOLDEN_TO_HARDWARE.iter().find(|(g, _)| *g == golden).map(|(_, h)| *h)
+    shared_knobs().find(|n| *n == golden)
 }
 
 /// Keys `[golden]` accepts, in canonical order.
@@ -101,7 +89,7 @@ pub fn check_hardware(key: &str, v: &toml::Value) -> Result<(), String> {
 
 /// The hardware configuration of one point: the preset (default
 /// `mark1998`), then the `[hardware]` knobs, then the golden knobs the
-/// hardware has ([`GOLDEN_TO_HARDWARE`]), then the trace's `supersample`;
+/// hardware has ([`shared_knobs`]), then the trace's `supersample`;
 /// validated.
 pub fn hardware_config(
     preset: Option<&str>,
@@ -187,7 +175,7 @@ mod tests {
         all.sort();
         all.dedup();
         // Golden knobs the hardware shares under the same name share a column.
-        let shared = GOLDEN_TO_HARDWARE.iter().filter(|(g, h)| g == h).count();
+        let shared = shared_knobs().count();
         assert_eq!(all.len(), n - shared);
     }
 

@@ -10,7 +10,7 @@
 //!    its paper's, [`MethodInfo::default_hole_fill`](crate::methods::MethodInfo)),
 //!    and with each golden combination if it takes golden knobs.
 //! 3. `hardware` runs with each combination of the golden knobs the
-//!    hardware has ([`knobs::GOLDEN_TO_HARDWARE`]) and of `[hardware]`;
+//!    hardware has ([`crate::run::hw_config::shared_knobs`]) and of `[hardware]`;
 //!    hole fills do not apply to it (its epipolar fill is built in).
 //! 4. Duplicates (the same trace variant and run reached twice) are kept
 //!    once, at their first place.
@@ -196,9 +196,7 @@ pub fn knob_cell(run: &PointRun, table: &str, knob: &str) -> String {
             None => String::new(),
         },
         // The shared column of a golden knob named in [hardware] only.
-        (PointRun::Method { golden: Some(cfg), .. }, "hardware")
-            if knobs::GOLDEN_TO_HARDWARE.iter().any(|(g, h)| g == h && *h == knob) =>
-        {
+        (PointRun::Method { golden: Some(cfg), .. }, "hardware") if knobs::hardware_name(knob).is_some() => {
             text(&serde_json::to_value(cfg).expect("config serializes")[knob])
         }
         _ => String::new(),
