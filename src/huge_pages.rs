@@ -1,8 +1,8 @@
 //! The memory allocator of the `postwarp` binary, its benches and examples:
-//! the system allocator, except that on Linux every block of at least
-//! [`HUGE`] bytes is its own anonymous mapping, aligned to [`HUGE`] and
-//! offered to the kernel for transparent huge pages
-//! (`madvise(MADV_HUGEPAGE)`).
+//! the system allocator, except that on Linux every zeroed block of at
+//! least [`HUGE`] bytes (the per-sample planes) is its own anonymous
+//! mapping, aligned to [`HUGE`] and offered to the kernel for transparent
+//! huge pages (`madvise(MADV_HUGEPAGE)`).
 //!
 //! Why: both engines keep per-sample planes of whole frames (a 640x480
 //! frame at 2x2 samples: ten planes of 1.2 M samples, about 50 MB) and
@@ -14,15 +14,24 @@
 //! frame: `docs/performance.md`.
 //!
 //! Rules:
-//! 1. Blocks below [`HUGE`], and every block on other systems, come from
-//!    `std::alloc::System` unchanged.
-//! 2. A large block is `mmap`ed with room to align it, the unaligned head
-//!    and tail are unmapped at once, and the kept range (the size rounded
-//!    up to whole 4 KiB pages) is advised; freeing unmaps it. Fresh
-//!    anonymous pages are zero, so a zeroed large block costs no memset.
-//! 3. A failed mapping returns null (the caller's allocation error), never
+//! 1. Only zeroed blocks of at least [`HUGE`] bytes (`vec![0; n]`, the
+//!    planes) get huge pages; every other block comes from
+//!    `std::alloc::System` unchanged, and so do all blocks on other
+//!    systems. Non-zeroed large blocks stay with the system allocator
+//!    because it reuses freed memory without clearing it: mapping those
+//!    afresh made the kernel clear every per-frame buffer of a multi-frame
+//!    `simulate` again (`clear_page_erms`, a sixth of its busy time).
+//! 2. A huge-page block is `mmap`ed with room to align it, the unaligned
+//!    head and tail are unmapped at once, and the kept range (the size
+//!    rounded up to whole 4 KiB pages) is advised. Fresh anonymous pages
+//!    are zero, so it costs no memset.
+//! 3. Every huge-page block is registered (at most [`REGISTERED`] at
+//!    once; beyond that, zeroed blocks come from the system allocator
+//!    too); freeing a registered block unmaps it, any other block goes to
+//!    the system allocator.
+//! 4. A failed mapping returns null (the caller's allocation error), never
 //!    panics; a refused `madvise` leaves ordinary pages (it is advice).
-//! 4. Values never depend on the allocator: output bytes are the same with
+//! 5. Values never depend on the allocator: output bytes are the same with
 //!    it or without it.
 //!
 //! Not modelled: explicit (hugetlbfs) pages, NUMA placement.
@@ -33,21 +42,79 @@ use std::alloc::{GlobalAlloc, Layout, System};
 /// x86-64 and common AArch64 huge-page size).
 pub const HUGE: usize = 2 << 20;
 
+/// Huge-page blocks live at once, at most (rule 3).
+pub const REGISTERED: usize = 1024;
+
 /// The allocator (module doc). Install it in a binary with
 /// `#[global_allocator] static ALLOC: postwarp::huge_pages::HugePageAlloc = postwarp::huge_pages::HugePageAlloc;`.
 pub struct HugePageAlloc;
 
 #[cfg(target_os = "linux")]
 mod large {
-    use super::HUGE;
+    use super::{HUGE, REGISTERED};
+    use std::sync::Mutex;
     const PAGE: usize = 4096;
+
+    /// Rule 3: the addresses of the live huge-page blocks.
+    struct Registry {
+        addrs: [usize; REGISTERED],
+        n: usize,
+    }
+
+    static LIVE: Mutex<Registry> = Mutex::new(Registry { addrs: [0; REGISTERED], n: 0 });
+
+    fn live() -> std::sync::MutexGuard<'static, Registry> {
+        // Nothing panics while the lock is held: a poisoned lock still
+        // holds consistent entries.
+        LIVE.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Rules 2 and 3: a registered, zeroed, `HUGE`-aligned block of `size`
+    /// bytes, or null (full registry or failed mapping: the caller uses
+    /// the system allocator).
+    pub fn alloc_registered(size: usize) -> *mut u8 {
+        let mut r = live();
+        if r.n == REGISTERED {
+            return std::ptr::null_mut();
+        }
+        let p = alloc(size);
+        if !p.is_null() {
+            let n = r.n;
+            r.addrs[n] = p as usize;
+            r.n += 1;
+        }
+        p
+    }
+
+    /// True if `p` is a live huge-page block; it is then unregistered and
+    /// unmapped.
+    ///
+    /// # Safety
+    /// If registered, `p` came from [`alloc_registered`] with this `size`.
+    pub unsafe fn free_if_registered(p: *mut u8, size: usize) -> bool {
+        let mut r = live();
+        let n = r.n;
+        let Some(i) = r.addrs[..n].iter().position(|&a| a == p as usize) else { return false };
+        r.addrs.swap(i, n - 1);
+        r.n -= 1;
+        drop(r);
+        // SAFETY: forwarded contract.
+        unsafe { free(p, size) };
+        true
+    }
+
+    /// True if `p` is a live huge-page block.
+    pub fn is_registered(p: *mut u8) -> bool {
+        let r = live();
+        r.addrs[..r.n].contains(&(p as usize))
+    }
 
     fn mapped_len(size: usize) -> usize {
         size.div_ceil(PAGE) * PAGE
     }
 
     /// Rule 2: a zeroed, `HUGE`-aligned mapping of `size` bytes, or null.
-    pub fn alloc(size: usize) -> *mut u8 {
+    fn alloc(size: usize) -> *mut u8 {
         let len = mapped_len(size);
         let Some(span) = len.checked_add(HUGE) else { return std::ptr::null_mut() };
         // SAFETY: an anonymous private mapping at an address of the
@@ -87,7 +154,7 @@ mod large {
     ///
     /// # Safety
     /// `p` came from [`alloc`] with the same `size`.
-    pub unsafe fn free(p: *mut u8, size: usize) {
+    unsafe fn free(p: *mut u8, size: usize) {
         // SAFETY: the caller's contract: `p .. p + mapped_len(size)` is
         // exactly the range `alloc` kept.
         unsafe { libc::munmap(p as *mut libc::c_void, mapped_len(size)) };
@@ -99,60 +166,60 @@ fn is_large(layout: &Layout) -> bool {
     cfg!(target_os = "linux") && layout.size() >= HUGE && layout.align() <= HUGE
 }
 
-// SAFETY: every block is either System's (rule 1) or a mapping of
-// `large::alloc` (rule 2), chosen by `is_large` of the layout, which the
-// caller passes unchanged to `dealloc`, so each block is freed by the
-// allocator that made it; large blocks are aligned to HUGE, which is at
-// least the layout's alignment.
+// SAFETY: every block is either System's (rule 1) or a registered
+// mapping of `large::alloc_registered` (rules 2 and 3); `dealloc` and
+// `realloc` look the address up in the registry, so each block is freed by
+// the allocator that made it. Huge-page blocks are aligned to HUGE, which
+// `is_large` checks is at least the layout's alignment.
 unsafe impl GlobalAlloc for HugePageAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        #[cfg(target_os = "linux")]
-        if is_large(&layout) {
-            return large::alloc(layout.size());
-        }
-        // SAFETY: forwarded contract.
+        // SAFETY: forwarded contract (rule 1: never a huge-page block).
         unsafe { System.alloc(layout) }
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
         #[cfg(target_os = "linux")]
         if is_large(&layout) {
-            // Fresh anonymous pages are zero (rule 2).
-            return large::alloc(layout.size());
+            let p = large::alloc_registered(layout.size());
+            if !p.is_null() {
+                return p;
+            }
         }
         // SAFETY: forwarded contract.
         unsafe { System.alloc_zeroed(layout) }
     }
 
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: a registered block came from `alloc_registered` with this
+        // layout's size (the caller passes the layout it allocated with).
         #[cfg(target_os = "linux")]
-        if is_large(&layout) {
-            // SAFETY: `is_large` chose `large::alloc` for this layout.
-            unsafe { large::free(ptr, layout.size()) };
+        if is_large(&layout) && unsafe { large::free_if_registered(ptr, layout.size()) } {
             return;
         }
-        // SAFETY: forwarded contract.
+        // SAFETY: forwarded contract; not a registered block, so System's.
         unsafe { System.dealloc(ptr, layout) }
     }
 
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        // SAFETY: the caller guarantees `new_size` forms a valid layout
-        // with the old alignment.
-        let new = unsafe { Layout::from_size_align_unchecked(new_size, layout.align()) };
-        if !is_large(&layout) && !is_large(&new) {
-            // SAFETY: forwarded contract; both blocks are System's.
-            return unsafe { System.realloc(ptr, layout, new_size) };
-        }
-        // SAFETY: a new block from this allocator, the contents copied,
-        // the old block freed by the allocator that made it.
-        unsafe {
-            let p = self.alloc(new);
-            if !p.is_null() {
-                std::ptr::copy_nonoverlapping(ptr, p, layout.size().min(new_size));
-                self.dealloc(ptr, layout);
+        #[cfg(target_os = "linux")]
+        if is_large(&layout) && large::is_registered(ptr) {
+            // A huge-page block grows or shrinks into a System block (a
+            // reallocation is not zeroed, rule 1).
+            // SAFETY: `new_size` forms a valid layout with the old
+            // alignment (the caller's contract); the contents are copied
+            // and the old block freed by the allocator that made it.
+            unsafe {
+                let new = Layout::from_size_align_unchecked(new_size, layout.align());
+                let p = System.alloc(new);
+                if !p.is_null() {
+                    std::ptr::copy_nonoverlapping(ptr, p, layout.size().min(new_size));
+                    self.dealloc(ptr, layout);
+                }
+                return p;
             }
-            p
         }
+        // SAFETY: forwarded contract; both blocks are System's.
+        unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
 
