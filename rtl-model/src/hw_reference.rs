@@ -5,8 +5,8 @@
 //! renderer's output, or the warper's conversion on first use; not
 //! charged), keep its packed form (block sizes for the source cache), its
 //! coarse depth map (the tile manager's schedule) and host-speed copies of
-//! what the fetch unit expands (valid bits, per-sample records, along the
-//! axes warps walk).
+//! what the fetch unit expands (valid bits in 8x8 tiles, one 24-byte
+//! record per sample, row-major).
 //!
 //! Rules: the expansion is the unpacker's (`units::abuffer`), so every unit
 //! sees exactly what a hardware expander would produce; the host copies
@@ -20,7 +20,6 @@ use crate::sample_image::SampleImage;
 use crate::schedule::CoarseDepth;
 use crate::traversal::Major;
 use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReference};
-use std::sync::OnceLock;
 
 /// A reference frame as it sits in memory, with the host-side expansion
 /// the fetch unit streams (unpacking is deterministic; the model does it
@@ -37,14 +36,10 @@ pub struct HwReference {
     pub depth: CoarseDepth,
     /// Packer counters of the conversion (reference frames).
     pub counters: AbufferCounters,
-    /// What the units read of each sample, packed in one record
-    /// (host-speed copies; they change no value): row-major for the
-    /// row-major sheets and column-major for the others, so that a sheet
-    /// streams its records in address order. Each is made from the other
-    /// (or the packed form) the first time a warp walks that way, so a
-    /// reference only ever warped along one axis holds one copy.
-    rows: OnceLock<Vec<RefSample>>,
-    cols: OnceLock<Vec<RefSample>>,
+    /// What the units read of each sample, one record per sample,
+    /// row-major (a host-speed copy: it changes no value). Column sheets
+    /// read it with a stride of one row ([`Line`]).
+    recs: Vec<RefSample>,
     /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     pub(crate) grid: Grid,
     /// `valid`, one word per 8x8 tile of [`Grid`].
@@ -75,13 +70,41 @@ impl Grid {
     }
 }
 
-/// What the units read of one reference sample (valid samples only).
+/// What the units read of one reference sample (valid samples only; all
+/// zero elsewhere). 24 bytes: the 1/Z the units use is derived from `z`
+/// where it is read ([`RefSample::inv_z`]), the same value the renderer's
+/// 1/Z would be.
 #[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
 pub(crate) struct RefSample {
-    pub(crate) inv_z: f64,
-    pub(crate) slopes: [f32; 2],
     pub(crate) colour: [f32; 3],
+    pub(crate) slopes: [f32; 2],
     pub(crate) z: f32,
+}
+
+impl RefSample {
+    /// `1/Z` in FP64 (the warp's input), 0 where there is no surface.
+    #[inline(always)]
+    pub(crate) fn inv_z(&self) -> f64 {
+        if self.z == 0.0 { 0.0 } else { 1.0 / self.z as f64 }
+    }
+}
+
+/// One traversal line of a reference's records: row `line`, or column
+/// `line` read with a stride of one row.
+#[derive(Clone, Copy)]
+pub(crate) struct Line<'a> {
+    recs: &'a [RefSample],
+    base: usize,
+    stride: usize,
+}
+
+impl<'a> Line<'a> {
+    /// The record at position `a` along the line.
+    #[inline(always)]
+    pub(crate) fn at(&self, a: usize) -> &'a RefSample {
+        &self.recs[self.base + a * self.stride]
+    }
 }
 
 impl HwReference {
@@ -90,42 +113,21 @@ impl HwReference {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
     }
 
-    /// The records along `major` (made on first use, module docs).
-    #[inline(always)]
-    fn recs(&self, major: Major) -> &[RefSample] {
-        let (w, h) = (self.width as usize, self.height as usize);
-        match major {
-            Major::Row => self.rows.get_or_init(|| match self.cols.get() {
-                Some(c) => transpose(c, w, h),
-                None => records(&self.packed.unpack()),
-            }),
-            Major::Column => self.cols.get_or_init(|| match self.rows.get() {
-                Some(r) => transpose(r, h, w),
-                None => transpose(&records(&self.packed.unpack()), h, w),
-            }),
-        }
-    }
-
     /// The records of line `line` along `major` (row `line`, or column
     /// `line`), indexed by the position along it.
     #[inline(always)]
-    pub(crate) fn line_recs(&self, major: Major, line: u32) -> &[RefSample] {
-        let (w, h) = (self.width as usize, self.height as usize);
-        let recs = self.recs(major);
+    pub(crate) fn line_recs(&self, major: Major, line: u32) -> Line<'_> {
+        let w = self.width as usize;
         match major {
-            Major::Row => &recs[line as usize * w..(line as usize + 1) * w],
-            Major::Column => &recs[line as usize * h..(line as usize + 1) * h],
+            Major::Row => Line { recs: &self.recs, base: line as usize * w, stride: 1 },
+            Major::Column => Line { recs: &self.recs, base: line as usize, stride: w },
         }
     }
 
-    /// The record of sample `(x, y)`, from the copy laid out along `major`.
+    /// The record of sample `(x, y)`.
     #[inline(always)]
-    pub(crate) fn rec(&self, major: Major, x: u32, y: u32) -> &RefSample {
-        let recs = self.recs(major);
-        match major {
-            Major::Row => &recs[y as usize * self.width as usize + x as usize],
-            Major::Column => &recs[x as usize * self.height as usize + y as usize],
-        }
+    pub(crate) fn rec(&self, x: u32, y: u32) -> &RefSample {
+        &self.recs[y as usize * self.width as usize + x as usize]
     }
 
     /// The samples as the fetch unit expands them (unpacked again: the
@@ -135,29 +137,28 @@ impl HwReference {
     }
 }
 
-/// The records of `samples`, row-major (zero where not valid).
+/// The records of `samples`, row-major (zero where not valid), in a zeroed
+/// block: the host's allocator may then map it in huge pages, which the
+/// column sheets' strided reads need.
 fn records(samples: &SampleImage) -> Vec<RefSample> {
-    let mut rows = vec![RefSample::default(); samples.len()];
+    let mut rows = zeroed_records(samples.len());
     for i in samples.valid.iter_ones() {
-        rows[i] = RefSample {
-            inv_z: 1.0 / samples.z[i] as f64,
-            slopes: samples.inv_z_slopes[i],
-            colour: samples.colour[i],
-            z: samples.z[i],
-        };
+        rows[i] = RefSample { colour: samples.colour[i], slopes: samples.inv_z_slopes[i], z: samples.z[i] };
     }
     rows
 }
 
-/// `m` (`rows` lines of `len` records) transposed: `len` lines of `rows`.
-fn transpose(m: &[RefSample], rows: usize, len: usize) -> Vec<RefSample> {
-    let mut t = vec![RefSample::default(); m.len()];
-    for (r, line) in m.chunks_exact(len).enumerate() {
-        for (a, rec) in line.iter().enumerate() {
-            t[a * rows + r] = *rec;
-        }
-    }
-    t
+/// `n` all-zero records, allocated zeroed.
+fn zeroed_records(n: usize) -> Vec<RefSample> {
+    const _: () = assert!(std::mem::size_of::<RefSample>() == 24);
+    let mut words: Vec<[f32; 6]> = vec![[0.0; 6]; n];
+    let (ptr, len, cap) = (words.as_mut_ptr(), words.len(), words.capacity());
+    std::mem::forget(words);
+    // SAFETY: `RefSample` is `repr(C)` of six `f32`s, so it has the size
+    // and alignment of `[f32; 6]` and every bit pattern of one is a value
+    // of the other; the block keeps its allocation's layout (same size and
+    // alignment per element, same capacity).
+    unsafe { Vec::from_raw_parts(ptr.cast::<RefSample>(), len, cap) }
 }
 
 /// The A-buffer format's parameters of a configuration.
@@ -191,8 +192,7 @@ impl HwReference {
             height: samples.height,
             depth,
             counters,
-            rows: OnceLock::new(),
-            cols: OnceLock::new(),
+            recs: records(&samples),
             grid,
             valid_tiles,
         }

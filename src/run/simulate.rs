@@ -149,6 +149,10 @@ fn measure(
         let differing = differing_samples(&hw, &golden.samples);
         let all = BitVec::repeat(true, hw.pixels.len());
         let psnr = psnr_rgb(&pixels8(&hw.pixels), &pixels8(&golden.pixels), &all);
+        let identical = differing == 0 && hw.pixels == golden.pixels;
+        // The golden frame is compared: its planes go before scoring and
+        // writing allocate theirs (the process's peak memory).
+        drop(golden);
         // Scoring beside writing the frame's files.
         let write = |out: &Path| -> anyhow::Result<()> {
             let d = &hw.frame;
@@ -188,11 +192,7 @@ fn measure(
             index: k,
             rates: HwRates::of(&counters.as_f64(), &cfg),
             counters,
-            vs_golden: VsGolden {
-                identical: differing == 0 && hw.pixels == golden.pixels,
-                differing_samples: differing,
-                psnr_db: psnr.is_finite().then_some(psnr),
-            },
+            vs_golden: VsGolden { identical, differing_samples: differing, psnr_db: psnr.is_finite().then_some(psnr) },
             vs_truth: vs_truth.as_ref().map(Truth::of),
             host_ms,
             golden_host_ms: golden_ms,

@@ -377,8 +377,8 @@ impl<'s> KernelSetupStage<'s> {
                 Major::Row => [group(gprev, a - 1), group(gprev, a), group(gcur, a - 1), group(gcur, a)],
                 Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
             };
-            let rec = recs[a as usize];
-            let (corners, _) = corners(tu, &t, x, y, rec.inv_z, rec.slopes, groups);
+            let rec = *recs.at(a as usize);
+            let (corners, _) = corners(tu, &t, x, y, rec.inv_z(), rec.slopes, groups);
             // Rule 5: a forward edge takes its backward neighbour's colour.
             let mut fill_colour = rec.colour;
             if let Some((dx, dy)) = backward_step(epipole, x, y) {
@@ -392,7 +392,7 @@ impl<'s> KernelSetupStage<'s> {
                     && let Some(tn) = row[an as usize]
                 {
                     let (nx, ny) = at(major, c + dl, an);
-                    let nk = r.rec(major, nx, ny);
+                    let nk = r.rec(nx, ny);
                     // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
                     let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
                     if nk.z > rec.z && !same_surface(&t, &tn, offset, threshold) {
@@ -408,7 +408,7 @@ impl<'s> KernelSetupStage<'s> {
                 corners_box: bounding_box(&corners),
                 colour: rec.colour,
                 fill_colour,
-                src_inv_z: rec.inv_z,
+                src_inv_z: rec.inv_z(),
                 src_slopes: rec.slopes,
             }));
         }

@@ -144,7 +144,7 @@ impl LineBuffer {
             }
             let (x0, y0) = at(major, line, b0);
             let out = &mut row.data[b0 as usize..=b1 as usize];
-            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| recs[b0 as usize + k].inv_z, out);
+            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| recs.at(b0 as usize + k).inv_z(), out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {
                 let (x, y) = at(major, line, a);
                 let gi = s.r.grid.index(x, y);
