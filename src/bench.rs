@@ -25,6 +25,14 @@ pub fn standard_spec() -> TraceSpec {
     TraceSpec { width: 640, height: 480, supersample: 2, ..TraceSpec::default() }
 }
 
+/// A frame of the `hmd2026` preset's display size (2000x2000 with 2x2
+/// samples per pixel), for `postwarp bench --hmd`; with `quick`, 200x200
+/// (for tests).
+pub fn hmd_spec(quick: bool) -> TraceSpec {
+    let side = if quick { 200 } else { 2000 };
+    TraceSpec { width: side, height: side, supersample: 2, ..TraceSpec::default() }
+}
+
 /// A small frame of the same scene and path (160x120, 2x2 samples) for
 /// quick checks (`postwarp bench --quick`).
 pub fn quick_spec() -> TraceSpec {

@@ -1,13 +1,13 @@
-//! `postwarp bench --quick`: the printed table has every row, each with
-//! positive times and rates, and peak RSS per reference sample for the
-//! process rows.
+//! `postwarp bench --quick --hmd`: the printed table has every row (the
+//! headset row on its small frame), each with positive times and rates,
+//! and peak RSS per reference sample for the process rows.
 
 use std::process::Command;
 
 #[test]
 fn bench_quick_prints_every_row_with_positive_numbers() {
     let out = Command::new(env!("CARGO_BIN_EXE_postwarp"))
-        .args(["bench", "--quick", "--repeats", "1"])
+        .args(["bench", "--quick", "--hmd", "--repeats", "1"])
         .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("run postwarp bench");
@@ -34,11 +34,13 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
             "engine hardware-model",
             "process golden",
             "process golden",
+            "process simulate",
             "process simulate"
         ],
         "{text}"
     );
     assert!(rows[3][1].starts_with("traces/motorcycle 741x500"), "{text}");
+    assert!(rows[6][1].starts_with("room 200x200 2x2") && rows[6][1].ends_with("preset hmd2026"), "{text}");
     for r in &rows {
         assert_eq!(r.len(), 8, "eight columns: {r:?}");
         let threads: usize = r[2].parse().expect("threads");

@@ -20,6 +20,11 @@
 //! 3. Each measurement runs `--repeats` times (after one untimed warm-up
 //!    for engine rows); best and median are printed. Samples per second
 //!    use the best time.
+//! 4. `--hmd` adds one process row, run once: `simulate --preset hmd2026`
+//!    of derived frame [`crate::bench::FRAME`] at the headset's display
+//!    size ([`crate::bench::hmd_spec`]; 200x200 with `--quick`), written
+//!    into the scratch directory and deleted after (the peak RSS of the
+//!    headset case).
 
 use crate::bench::{BenchFrame, quick_spec, standard_spec};
 use crate::golden::config::GoldenConfig;
@@ -48,6 +53,13 @@ pub struct Args {
     /// The real pair timed as a whole `golden` process (a trace directory).
     #[arg(long, default_value = "traces/motorcycle")]
     pub real_pair: PathBuf,
+    /// Also time one whole `simulate --preset hmd2026` of a frame of the
+    /// headset's size (2000x2000 pixels, 2x2 samples, the standard frame's
+    /// scene and path), rendered here and deleted after: about 80 M
+    /// reference samples, minutes and several GB. Runs once. With
+    /// --quick, a 200x200 frame on the same preset (for tests).
+    #[arg(long)]
+    pub hmd: bool,
 }
 
 /// Best and median of repeated timings (seconds).
@@ -179,9 +191,10 @@ fn trace_samples(t: &Trace) -> (u64, u64) {
     (per_frame.iter().sum(), per_frame.iter().copied().max().unwrap_or(0))
 }
 
-/// Time whole processes `postwarp <cmd> TRACE --out DIR --force`.
+/// Time whole processes `postwarp <cmd> TRACE --out DIR --force <extra>`.
 fn process_row(
     cmd: &str,
+    extra: &[&str],
     trace_path: &Path,
     input: String,
     scratch: &Path,
@@ -191,7 +204,8 @@ fn process_row(
     let trace = Trace::open(trace_path)?;
     let (samples, per_frame) = trace_samples(&trace);
     let out = scratch.join(format!("out-{cmd}"));
-    let args: Vec<OsString> = vec![cmd.into(), trace_path.into(), "--out".into(), out.into(), "--force".into()];
+    let mut args: Vec<OsString> = vec![cmd.into(), trace_path.into(), "--out".into(), out.into(), "--force".into()];
+    args.extend(extra.iter().map(OsString::from));
     let log = scratch.join(format!("{cmd}.log"));
     let mut peak = 0u64;
     let mut have_peak = false;
@@ -326,9 +340,25 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         real.display.supersample,
         real.display.supersample
     );
-    rows.push(process_row("golden", &a.real_pair, real_name, &scratch.0, repeats, cores)?);
-    rows.push(process_row("golden", &frame_trace, frame_name.clone(), &scratch.0, repeats, cores)?);
-    rows.push(process_row("simulate", &frame_trace, frame_name, &scratch.0, repeats, cores)?);
+    rows.push(process_row("golden", &[], &a.real_pair, real_name, &scratch.0, repeats, cores)?);
+    rows.push(process_row("golden", &[], &frame_trace, frame_name.clone(), &scratch.0, repeats, cores)?);
+    rows.push(process_row("simulate", &[], &frame_trace, frame_name, &scratch.0, repeats, cores)?);
+    if a.hmd {
+        let spec = crate::bench::hmd_spec(a.quick);
+        let name = format!(
+            "{} {}x{} {}x{} frame {}, preset hmd2026",
+            crate::bench::SCENE,
+            spec.width,
+            spec.height,
+            spec.supersample,
+            spec.supersample,
+            crate::bench::FRAME
+        );
+        let trace = BenchFrame::new(spec)?.write_trace(&scratch.0.join("hmd-trace"))?;
+        let row = process_row("simulate", &["--preset", "hmd2026"], &trace, name, &scratch.0, 1, cores)?;
+        std::fs::remove_dir_all(scratch.0.join("hmd-trace")).ok();
+        rows.push(row);
+    }
 
     println!(
         "postwarp bench: {cores} cores, {repeats} repeats per row; load average {load_before} before, {} after",
