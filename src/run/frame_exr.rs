@@ -2,9 +2,10 @@
 //! (`docs/trace-format.md`): colour, Z, 1/Z slopes, `valid` = a real
 //! surface, `id` = 1 + the writing reference's position in the warp list
 //! (0 where nothing real). `postwarp golden` and `postwarp simulate` write
-//! it the same way, so identical engines write identical files.
+//! it the same way, so identical engines write identical files; run-length
+//! encoded (`ExrPacking::Fast`), lossless.
 
-use crate::trace::{SlopeSource, write_reference_image};
+use crate::trace::{ExrPacking, SlopeSource, write_reference_image_packed};
 use bitvec::vec::BitVec;
 use postwarp_rtl::SampleImage;
 use std::path::Path;
@@ -44,6 +45,6 @@ pub fn derived_samples(p: &Planes) -> SampleImage {
 
 /// Write `p` to `path` (module rule).
 pub fn write_frame_exr(path: &Path, p: &Planes) -> anyhow::Result<()> {
-    write_reference_image(path, &derived_samples(p), SlopeSource::Exact)?;
+    write_reference_image_packed(path, &derived_samples(p), SlopeSource::Exact, ExrPacking::Fast)?;
     Ok(())
 }
