@@ -330,32 +330,39 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
     let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
     let (w, h) = (input.width as usize, input.height as usize);
-    // FLIP (the most expensive) beside the others; each is computed once,
-    // whatever the thread count, so the scores do not depend on it.
-    let (flip_mean, (ssim_luma, delta_e20_fraction)) = rayon::join(
-        || flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+    // The neighbourhood metrics on the common mask see the truth outside it,
+    // as they see it on unknown pixels; a mask of every known pixel is the
+    // whole-image case.
+    let separate_common = common != *known;
+    let common8 = if separate_common { outside_as_truth(input.image, &truth8, &common) } else { Vec::new() };
+    let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
+    // The two FLIPs (the most expensive, one thread each) beside each other
+    // and beside the rest; each score is computed once, whatever the
+    // thread count, so the scores do not depend on it.
+    let ((flip_mean, flip_c), ((ssim_luma, ssim_c), delta_e20_fraction)) = rayon::join(
         || {
             rayon::join(
-                || ssim::ssim_mean(w, h, &image_luma, &truth_luma, known),
+                || flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+                || separate_common.then(|| flip::flip_mean(input.width, input.height, &common8, &truth8, &common)),
+            )
+        },
+        || {
+            rayon::join(
+                || {
+                    rayon::join(
+                        || ssim::ssim_mean(w, h, &image_luma, &truth_luma, known),
+                        || separate_common.then(|| ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common)),
+                    )
+                },
                 || delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
             )
         },
     );
     let psnr_luma_db = psnr::psnr_plane(&image_luma, &truth_luma, known);
     let psnr_rgb_db = psnr::psnr_rgb(&image8, &truth8, known);
-    // The neighbourhood metrics on the common mask see the truth outside it,
-    // as they see it on unknown pixels; a mask of every known pixel is the
-    // whole-image case.
-    let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = if common == *known {
-        (psnr_rgb_db, ssim_luma, flip_mean)
-    } else {
-        let common8 = outside_as_truth(input.image, &truth8, &common);
-        let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
-        let (flip_c, (psnr_c, ssim_c)) = rayon::join(
-            || flip::flip_mean(input.width, input.height, &common8, &truth8, &common),
-            || (psnr::psnr_rgb(&common8, &truth8, &common), ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common)),
-        );
-        (psnr_c, ssim_c, flip_c)
+    let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = match (flip_c, ssim_c) {
+        (Some(flip_c), Some(ssim_c)) => (psnr::psnr_rgb(&common8, &truth8, &common), ssim_c, flip_c),
+        _ => (psnr_rgb_db, ssim_luma, flip_mean),
     };
 
     Ok(Quality {
