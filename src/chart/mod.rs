@@ -25,12 +25,16 @@
 //! 5. A stress sweep (exactly one generated-trace column varies) also
 //!    gives stability charts of luma PSNR against that column, with each
 //!    method's failure point marked ([`stability`]).
-//! 6. Same CSV, same bytes. Charts are written atomically; chart files of
+//! 6. A precision sweep (an `arith` knob column and `q_…` format columns)
+//!    also gives charts of luma PSNR against each format's fraction bits,
+//!    against float and against ground truth ([`precision`]).
+//! 7. Same CSV, same bytes. Charts are written atomically; chart files of
 //!    an earlier run that this CSV no longer gives are removed.
 
 pub mod axis;
 pub mod font;
 pub mod pareto;
+pub mod precision;
 pub mod scatter;
 pub mod stability;
 pub mod style;
@@ -214,31 +218,23 @@ pub fn write_charts(csv: &str, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let charts = charts_from_table(&table);
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let mut written = Vec::new();
-    for (stem, chart) in &charts {
-        let svg = dir.join(format!("{stem}.svg"));
-        crate::io_util::write_bytes_atomically(
-            &svg,
-            scatter::render_svg(chart).map_err(anyhow::Error::msg)?.as_bytes(),
-        )
-        .with_context(|| format!("writing {}", svg.display()))?;
-        let png = dir.join(format!("{stem}.png"));
-        crate::io_util::write_bytes_atomically(&png, &scatter::render_png(chart).map_err(anyhow::Error::msg)?)
-            .with_context(|| format!("writing {}", png.display()))?;
-        written.push(svg);
-        written.push(png);
+    let mut put = |stem: &str, svg: Result<String, String>, png: Result<Vec<u8>, String>| -> anyhow::Result<()> {
+        for (ext, bytes) in [("svg", svg.map(String::into_bytes)), ("png", png)] {
+            let path = dir.join(format!("{stem}.{ext}"));
+            crate::io_util::write_bytes_atomically(&path, &bytes.map_err(anyhow::Error::msg)?)
+                .with_context(|| format!("writing {}", path.display()))?;
+            written.push(path);
+        }
+        Ok(())
+    };
+    for (stem, c) in &charts {
+        put(stem, scatter::render_svg(c), scatter::render_png(c))?;
     }
-    for (stem, chart) in stability::stress_charts(&table) {
-        let svg = dir.join(format!("{stem}.svg"));
-        crate::io_util::write_bytes_atomically(
-            &svg,
-            stability::render_svg(&chart).map_err(anyhow::Error::msg)?.as_bytes(),
-        )
-        .with_context(|| format!("writing {}", svg.display()))?;
-        let png = dir.join(format!("{stem}.png"));
-        crate::io_util::write_bytes_atomically(&png, &stability::render_png(&chart).map_err(anyhow::Error::msg)?)
-            .with_context(|| format!("writing {}", png.display()))?;
-        written.push(svg);
-        written.push(png);
+    for (stem, c) in stability::stress_charts(&table) {
+        put(&stem, stability::render_svg(&c), stability::render_png(&c))?;
+    }
+    for (stem, c) in precision::precision_charts(&table) {
+        put(&stem, precision::render_svg(&c), precision::render_png(&c))?;
     }
     for entry in std::fs::read_dir(dir).with_context(|| format!("listing {}", dir.display()))? {
         let p = entry?.path();

@@ -159,6 +159,19 @@ pub struct Metrics {
     /// "dramsim3"` (fraction; empty for `ideal`).
     #[serde(default)]
     pub dram_row_hit_rate: Option<f64>,
+    /// Mean luma PSNR of the hardware image against the FP64 golden image
+    /// of the same configuration with `arith = "float"`, hardware with
+    /// `arith = "fixed"` (dB; frames identical to float left out).
+    #[serde(default)]
+    pub psnr_luma_vs_float_db: Option<f64>,
+    /// Frames whose hardware image equals the float golden image bit for
+    /// bit, hardware with `arith = "fixed"` (frames).
+    #[serde(default)]
+    pub vs_float_identical_frames: Option<u64>,
+    /// Bits of the destination tile cache's per-sample planes at the
+    /// configuration's widths, over 8, hardware (bytes/sample).
+    #[serde(default)]
+    pub dest_bytes_per_sample: Option<f64>,
 }
 
 /// (column, unit, description, deterministic) of every metric in
@@ -211,7 +224,40 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
         true,
     ),
     ("dram_row_hit_rate", "fraction", "row hits / DRAMsim3 transactions (hardware, dram_backend = dramsim3)", true),
+    (
+        "psnr_luma_vs_float_db",
+        "dB",
+        "mean luma PSNR against the FP64 golden image of the same configuration (hardware, arith = fixed; identical \
+         frames left out)",
+        true,
+    ),
+    (
+        "vs_float_identical_frames",
+        "frames",
+        "frames equal bit for bit to the FP64 golden image (hardware, arith = fixed)",
+        true,
+    ),
+    (
+        "dest_bytes_per_sample",
+        "bytes/sample",
+        "destination tile cache bytes per sample, all planes at the configuration's widths (hardware)",
+        true,
+    ),
 ];
+
+/// The destination tile cache's bytes per sample from a report's
+/// `budget`: its per-sample planes' `bits_per_entry` (stores named
+/// `dest_cache.plane…` and `dest_cache.real`, `postwarp_rtl::budget::dest_planes`)
+/// over 8.
+fn dest_bytes_per_sample(budget: &Value) -> Option<f64> {
+    let stores = budget.get("stores")?.as_array()?;
+    let bits: f64 = stores
+        .iter()
+        .filter(|s| s["name"].as_str().is_some_and(|n| n.starts_with("dest_cache.plane") || n == "dest_cache.real"))
+        .filter_map(|s| s["bits_per_entry"].as_f64())
+        .sum();
+    (bits > 0.0).then_some(bits / 8.0)
+}
 
 fn finite(x: f64) -> Option<f64> {
     x.is_finite().then_some(x)
@@ -263,6 +309,7 @@ impl Metrics {
             common_pixels_per_frame: m.vs_truth.as_ref().and_then(|t| t.pixels.common_pixels),
             dram_achieved_gbps: m.rates.dram.dram_achieved_gbps,
             dram_row_hit_rate: m.rates.dram.dram_row_hit_rate,
+            dest_bytes_per_sample: dest_bytes_per_sample(&r.budget),
             ..Metrics::default()
         }
     }

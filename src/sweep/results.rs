@@ -146,7 +146,7 @@ pub fn read_csv(text: &str) -> Result<ResultsTable, String> {
             if c.is_empty() {
                 continue;
             }
-            let v = if name == "golden_identical_frames" {
+            let v = if name == "golden_identical_frames" || name == "vs_float_identical_frames" {
                 c.parse::<u64>().ok().map(serde_json::Value::from)
             } else {
                 c.parse::<f64>().ok().filter(|x| x.is_finite()).map(serde_json::Value::from)
