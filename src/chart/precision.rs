@@ -2,7 +2,7 @@
 //! format of the fixed-point mode, against the FP64 golden image and
 //! against ground truth, with the A-buffer's bytes per sample beside each
 //! point and the smallest format within [`TOLERANCE_DB`] of float marked
-//! (`docs/precision.md`).
+//!.
 //!
 //! Rules:
 //! 1. Precision columns are the knob columns named `q_…` (a Q format,

@@ -59,6 +59,20 @@ pub fn to_json(b: &Budget) -> Value {
     })
 }
 
+/// The destination tile cache's bytes per sample from a report's
+/// `budget`: its per-sample planes' `bits_per_entry` (stores named
+/// `dest_cache.plane…` and `dest_cache.real`, `postwarp_rtl::budget::dest_planes`)
+/// over 8.
+pub fn dest_bytes_per_sample(budget: &Value) -> Option<f64> {
+    let stores = budget.get("stores")?.as_array()?;
+    let bits: f64 = stores
+        .iter()
+        .filter(|s| s["name"].as_str().is_some_and(|n| n.starts_with("dest_cache.plane") || n == "dest_cache.real"))
+        .filter_map(|s| s["bits_per_entry"].as_f64())
+        .sum();
+    (bits > 0.0).then_some(bits / 8.0)
+}
+
 /// The sizes of a trace: its derived frame (display times `supersample`)
 /// and its largest reference's longer side (samples).
 pub fn trace_sizes(t: &crate::trace::Trace, supersample: u32) -> Sizes {
@@ -212,4 +226,19 @@ pub fn text(b: &Budget) -> String {
         t.logic_area_mm2,
     );
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use postwarp_rtl::budget::{dest_planes, widths};
+    use postwarp_rtl::config::EngineConfig;
+
+    #[test]
+    fn dest_bytes_per_sample_sums_the_destination_planes() {
+        let cfg = EngineConfig::default();
+        let bits: u32 = dest_planes(&widths(&cfg)).iter().map(|p| p.2).sum();
+        assert_eq!(dest_bytes_per_sample(&to_json(&Budget::of(&cfg))), Some(f64::from(bits) / 8.0));
+        assert_eq!(dest_bytes_per_sample(&Value::Null), None, "a report written before the budget");
+    }
 }

@@ -245,20 +245,6 @@ pub const METRIC_COLUMNS: &[(&str, &str, &str, bool)] = &[
     ),
 ];
 
-/// The destination tile cache's bytes per sample from a report's
-/// `budget`: its per-sample planes' `bits_per_entry` (stores named
-/// `dest_cache.plane…` and `dest_cache.real`, `postwarp_rtl::budget::dest_planes`)
-/// over 8.
-fn dest_bytes_per_sample(budget: &Value) -> Option<f64> {
-    let stores = budget.get("stores")?.as_array()?;
-    let bits: f64 = stores
-        .iter()
-        .filter(|s| s["name"].as_str().is_some_and(|n| n.starts_with("dest_cache.plane") || n == "dest_cache.real"))
-        .filter_map(|s| s["bits_per_entry"].as_f64())
-        .sum();
-    (bits > 0.0).then_some(bits / 8.0)
-}
-
 fn finite(x: f64) -> Option<f64> {
     x.is_finite().then_some(x)
 }
@@ -309,7 +295,7 @@ impl Metrics {
             common_pixels_per_frame: m.vs_truth.as_ref().and_then(|t| t.pixels.common_pixels),
             dram_achieved_gbps: m.rates.dram.dram_achieved_gbps,
             dram_row_hit_rate: m.rates.dram.dram_row_hit_rate,
-            dest_bytes_per_sample: dest_bytes_per_sample(&r.budget),
+            dest_bytes_per_sample: crate::report::budget::dest_bytes_per_sample(&r.budget),
             ..Metrics::default()
         }
     }
