@@ -183,6 +183,9 @@ pub fn precision_charts(t: &ResultsTable) -> Vec<(String, PrecisionChart)> {
 
 type DrawResult<T> = Result<T, String>;
 
+/// A drawn line: legend name, points, style number.
+type Line<'a> = (&'a str, &'a [(f64, f64)], usize);
+
 fn e<E: std::fmt::Display>(err: E) -> String {
     format!("drawing a chart: {err}")
 }
@@ -227,8 +230,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &PrecisionChart) -
             }))
             .map_err(e)?;
     }
-    let series: [(&str, &[(f64, f64)], usize); 2] =
-        [("vs FP64 golden", &s.vs_float, 0), ("vs ground truth", &s.vs_truth, 1)];
+    let series: [Line; 2] = [("vs FP64 golden", &s.vs_float, 0), ("vs ground truth", &s.vs_truth, 1)];
     let label_style = (FAMILY, 11).into_font().color(&RGBColor(70, 70, 70));
     for (_, pts, style) in series {
         let (colour, shape) = series_style(style);
