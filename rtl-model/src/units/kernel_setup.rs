@@ -52,7 +52,7 @@ use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
-use crate::hw_reference::HwReference;
+use crate::hw_reference::{HwReference, RefSample};
 use crate::traversal::{Line, Major};
 use glam::DVec2;
 
@@ -231,6 +231,10 @@ pub struct KernelSetupStage<'s> {
     emits: Vec<Emit>,
     computed: bool,
     next_emit: usize,
+    /// Host scratch: the current line's reference records, gathered before
+    /// its kernels are computed (a column sheet's records are a row apart;
+    /// independent loads overlap their misses). No model state.
+    recs_run: Vec<RefSample>,
     kernels: u64,
     culled: u64,
     activity: Activity,
@@ -264,6 +268,7 @@ impl<'s> KernelSetupStage<'s> {
             emits: Vec::new(),
             computed: false,
             next_emit: 0,
+            recs_run: Vec::new(),
             kernels: 0,
             culled: 0,
             activity,
@@ -362,6 +367,8 @@ impl<'s> KernelSetupStage<'s> {
         let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
         let group = |row: Option<&[Option<Group>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
         let recs = r.line_recs(major, l.line);
+        self.recs_run.clear();
+        self.recs_run.extend((lo..=hi).map(|a| *recs.at(a as usize)));
         for k in 0..l.len() as i64 {
             let a = if l.step > 0 { lo + k } else { hi - k };
             let (x, y) = at(major, c, a);
@@ -377,7 +384,7 @@ impl<'s> KernelSetupStage<'s> {
                 Major::Row => [group(gprev, a - 1), group(gprev, a), group(gcur, a - 1), group(gcur, a)],
                 Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
             };
-            let rec = *recs.at(a as usize);
+            let rec = self.recs_run[(a - lo) as usize];
             let (corners, _) = corners(tu, &t, x, y, rec.inv_z(), rec.slopes, groups);
             // Rule 5: a forward edge takes its backward neighbour's colour.
             let mut fill_colour = rec.colour;

@@ -88,6 +88,11 @@ pub struct LineBuffer {
     size: (u32, u32),
     warps: Vec<Row<Option<Transformed>>>,
     groups: Vec<Row<Option<Group>>>,
+    /// Host scratch: the reference 1/Z of the run being warped, gathered
+    /// before the warp (a column sheet's records are a row apart, and
+    /// independent loads overlap their misses where the incremental warp's
+    /// chain would wait on each). No model state.
+    inv_z_run: Vec<f64>,
 }
 
 /// What the buffer reads to compute its contents.
@@ -144,7 +149,10 @@ impl LineBuffer {
             }
             let (x0, y0) = at(major, line, b0);
             let out = &mut row.data[b0 as usize..=b1 as usize];
-            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| recs.at(b0 as usize + k).inv_z(), out);
+            self.inv_z_run.clear();
+            self.inv_z_run.extend((b0 as usize..=b1 as usize).map(|a| recs.at(a).inv_z()));
+            let run = &self.inv_z_run;
+            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| run[k], out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {
                 let (x, y) = at(major, line, a);
                 let gi = s.r.grid.index(x, y);
