@@ -14,7 +14,7 @@
 //!    CSV). File `precision.<trace>.<column>.svg` / `.png`.
 //! 3. Two series: `vs FP64 golden` (`psnr_luma_vs_float_db`; a point whose
 //!    every frame equals the float image, so no finite PSNR, is drawn on
-//!    the top edge as "= float") and `vs ground truth` (`psnr_luma_db`).
+//!    the top edge as a diamond) and `vs ground truth` (`psnr_luma_db`).
 //!    The trace's float row (`arith` = `float`), if present, gives a dashed
 //!    line at its PSNR against ground truth.
 //! 4. Minimal ([`minimal_point`]): the smallest x such that this point and
@@ -39,6 +39,8 @@ pub const TOLERANCE_DB: f64 = 0.1;
 const LEGEND_WIDTH: u32 = 290;
 const TITLE_HEIGHT: u32 = 40;
 const MARKER: i32 = 5;
+/// The marker of a point identical to float, on the top edge.
+const IDENTICAL: Shape = Shape::Diamond;
 
 /// One precision chart.
 #[derive(Clone, Debug, PartialEq)]
@@ -234,13 +236,15 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &PrecisionChart) -
     let label_style = (FAMILY, 11).into_font().color(&RGBColor(70, 70, 70));
     for (_, pts, style) in series {
         let (colour, shape) = series_style(style);
-        let mut line: Vec<(f64, f64)> = pts.iter().map(|p| (p.0, if p.1.is_finite() { p.1 } else { top })).collect();
-        line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart.draw_series(std::iter::once(PathElement::new(line.clone(), colour.stroke_width(2)))).map_err(e)?;
-        for (p, raw) in line.iter().zip(pts.iter().map(|p| p.1)) {
-            let c = chart.plotting_area().map_coordinate(p);
-            let shape = if raw.is_finite() || p.1 != top { shape } else { Shape::TriangleUp };
-            draw_marker(root, c, MARKER, shape, colour).map_err(e)?;
+        // (x, y drawn, identical to float), in x order.
+        let mut marks: Vec<(f64, f64, bool)> =
+            pts.iter().map(|p| if p.1.is_finite() { (p.0, p.1, false) } else { (p.0, top, true) }).collect();
+        marks.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let line: Vec<(f64, f64)> = marks.iter().map(|m| (m.0, m.1)).collect();
+        chart.draw_series(std::iter::once(PathElement::new(line, colour.stroke_width(2)))).map_err(e)?;
+        for &(x, y, identical) in &marks {
+            let c = chart.plotting_area().map_coordinate(&(x, y));
+            draw_marker(root, c, MARKER, if identical { IDENTICAL } else { shape }, colour).map_err(e)?;
         }
     }
     let area = chart.plotting_area();
@@ -264,7 +268,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &PrecisionChart) -
         ly += 26;
     }
     let (colour, _) = series_style(0);
-    draw_marker(&legend, (x0 + 8, ly), MARKER, Shape::TriangleUp, colour).map_err(e)?;
+    draw_marker(&legend, (x0 + 8, ly), MARKER, IDENTICAL, colour).map_err(e)?;
     legend.draw(&Text::new("= float (identical frames)", (x0 + 24, ly - 8), small.clone())).map_err(e)?;
     ly += 28;
     if let Some(f) = s.float_truth_db {
