@@ -309,8 +309,19 @@ impl FixedFormats {
         for (k, (name, s)) in Q_KNOBS.iter().zip(q).enumerate() {
             f[k] = QFormat::parse(s).map_err(|e| format!("{name} = {e}"))?;
         }
-        let [ref_coord, ref_inv_z, numerator, denominator, reciprocal, position, inv_z, slope, corner, colour, hole_weight] =
-            f;
+        let [
+            ref_coord,
+            ref_inv_z,
+            numerator,
+            denominator,
+            reciprocal,
+            position,
+            inv_z,
+            slope,
+            corner,
+            colour,
+            hole_weight,
+        ] = f;
         let out = FixedFormats {
             ref_coord,
             ref_inv_z,
@@ -482,7 +493,8 @@ mod tests {
 
     #[test]
     fn the_knob_set_parses_and_names_the_knob_in_its_errors() {
-        let mut v = ["Q16_4", "Q8_24", "Q18_14", "Q8_24", "Q8_24", "Q16_16", "Q8_24", "Q8_24", "Q16_16", "Q8_24", "Q8_24"];
+        let mut v =
+            ["Q16_4", "Q8_24", "Q18_14", "Q8_24", "Q8_24", "Q16_16", "Q8_24", "Q8_24", "Q16_16", "Q8_24", "Q8_24"];
         let f = FixedFormats::from_knobs(v, 8, 2).unwrap();
         assert_eq!((f.position, f.hole_weight), (q("Q16_16"), q("Q8_24")));
         v[5] = "Q16";

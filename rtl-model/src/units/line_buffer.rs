@@ -33,7 +33,7 @@
 //! of the reference), its write port (the transform's results arrive
 //! through the transform pipeline, which is timed).
 
-use super::kernel_setup::{Group, group};
+use super::kernel_setup::{Group, group_in};
 use super::transform::{TransformStage, TransformUnit, Transformed};
 use crate::hw_reference::HwReference;
 use crate::traversal::Major;
@@ -144,7 +144,7 @@ impl LineBuffer {
             }
             let (x0, y0) = at(major, line, b0);
             let out = &mut row.data[b0 as usize..=b1 as usize];
-            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| recs.at(b0 as usize + k).inv_z(), out);
+            s.tu.warp_run((x0 as f64, y0 as f64), step, |k| s.r.inv_z(recs.at(b0 as usize + k)), out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {
                 let (x, y) = at(major, line, a);
                 let gi = s.r.grid.index(x, y);
@@ -168,6 +168,7 @@ impl LineBuffer {
             return;
         }
         let wno = self.warp_no;
+        let corner = s.tu.fixed().map(|f| f.corner);
         let (lower, upper) = ((line & 3) as usize, ((line + 1) & 3) as usize);
         let row = &mut self.groups[(line & 3) as usize];
         if reaches_end {
@@ -180,8 +181,8 @@ impl LineBuffer {
                 let (p, q, r, t) = (w(lower, a), w(lower, a + 1), w(upper, a), w(upper, a + 1));
                 // Rule 3: a = (gx, gy), b = (gx + 1, gy), c = (gx, gy + 1), d.
                 let g = match major {
-                    Major::Row => group(p, q, r, t, s.threshold),
-                    Major::Column => group(p, r, q, t, s.threshold),
+                    Major::Row => group_in(p, q, r, t, s.threshold, corner),
+                    Major::Column => group_in(p, r, q, t, s.threshold, corner),
                 };
                 row.data[a as usize] = Some(g);
             }
