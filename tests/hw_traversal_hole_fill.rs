@@ -252,7 +252,8 @@ fn compare_pass(d: &mut DestPlanes, f: &mut DestFrame, e: &Epipole, p: HoleFillP
             visited: f.len() as u64,
             filled: st.filled,
             unreached: st.unreached,
-            far_taps_used: st.far_taps_used
+            far_taps_used: st.far_taps_used,
+            saturations: 0
         },
         "{ctx}: counters"
     );

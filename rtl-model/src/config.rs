@@ -135,6 +135,15 @@ pub fn check_address_mapping(m: &str) -> Result<(), String> {
 }
 
 crate::knob_names! {
+    /// Values of the `arith` knob (both engines' tables).
+    pub ARITH_MODES, ARITH_MODES_UNIT = "float", "fixed"
+}
+
+/// A Q-format knob's range (`qformat::QFORMAT_RULE`).
+pub const QFORMAT_RANGE: Range =
+    Range::Text { valid: crate::qformat::QFORMAT_RULE, check: crate::qformat::QFormat::is_valid };
+
+crate::knob_names! {
     /// Names accepted by [`EngineConfig::preset`].
     pub PRESETS, PRESETS_UNIT = "mark1998", "hmd2026"
 }
@@ -242,6 +251,59 @@ crate::knob_table! {
         fallback_fill: bool = true; Range::Bool, "bool",
             "after the last warp, the hole fill's fallback pass fills the samples no epipolar pass reached \
              (`units/fallback_fill.rs`)";
+        /// `docs/fixed-point.md`; the `q_*` formats and the reciprocal's
+        /// knobs are read only with `arith = "fixed"`.
+        arith: String = "float".into(); Range::Choice(ARITH_MODES), ARITH_MODES_UNIT,
+            "datapath arithmetic: `float` (FP64 arithmetic, FP32 planes) or `fixed` (values rounded to the `q_*` \
+             formats where each unit produces them, saturating and counted; `docs/fixed-point.md`)";
+        q_ref_coord: String = "Q16_4".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: reference sample coordinates (x ± 1/2, y ± 1/2) at fetch";
+        q_ref_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: reference 1/Z at fetch";
+        q_numerator: String = "Q18_14".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: the transform's warp numerators N.x, N.y";
+        q_denominator: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: the transform's warp denominator W";
+        q_reciprocal: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: 1/W, by seed table and Newton–Raphson steps";
+        recip_table_bits: u32 = 8; int(1, 16), "bits",
+            "fixed mode: index bits of the reciprocal's seed table (2^bits entries)";
+        recip_iterations: u32 = 2; int(0, 4), "iterations", "fixed mode: Newton–Raphson steps after the seed";
+        q_position: String = "Q16_16".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: derived positions (x', y') = N·(1/W)";
+        q_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: derived 1/Z";
+        q_slope: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: slopes of 1/Z (reference at fetch, derived at the raster) and the expected spacing E";
+        q_corner: String = "Q16_16".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: kernel corners (shared means and exact edge corners)";
+        q_colour: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: colour channels (reference at fetch, hole-fill means and accumulations)";
+        q_hole_weight: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: hole-fill weights 1/d and their sums (plane 9)";
+    }
+}
+
+impl EngineConfig {
+    /// The fixed mode's formats (`None` with `arith = "float"`); errors
+    /// name the knob.
+    pub fn fixed_formats(&self) -> Result<Option<crate::qformat::FixedFormats>, String> {
+        if self.arith != "fixed" {
+            return Ok(None);
+        }
+        let q = [
+            &self.q_ref_coord,
+            &self.q_ref_inv_z,
+            &self.q_numerator,
+            &self.q_denominator,
+            &self.q_reciprocal,
+            &self.q_position,
+            &self.q_inv_z,
+            &self.q_slope,
+            &self.q_corner,
+            &self.q_colour,
+            &self.q_hole_weight,
+        ];
+        crate::qformat::FixedFormats::from_knobs(q.map(|s| s.as_str()), self.recip_table_bits, self.recip_iterations)
+            .map(Some)
     }
 }
 
@@ -254,6 +316,13 @@ fn tile_bytes(c: &EngineConfig) -> u64 {
 /// order. (That `tile_size` is a multiple of the trace's `supersample` is
 /// checked by `Engine::new`, once the trace's super-sampling applies.)
 pub const CROSS_RULES: &[CrossRule<EngineConfig>] = &[
+    CrossRule {
+        name: "fixed_precision",
+        rule: "with `arith = \"fixed\"`: `q_ref_coord` has a fraction bit, `q_numerator`, `q_denominator`, \
+               `q_position`, `q_corner` at least 12 and `q_reciprocal` at least 16, and (`recip_table_bits` + 1) · \
+               2^`recip_iterations` ≥ 20 (`docs/fixed-point.md`)",
+        check: |c| c.fixed_formats().map(|_| ()),
+    },
     CrossRule {
         name: "kernel_within_tile",
         rule: "`kernel_limit` ≤ `tile_size`, so a stamp touches at most 4 tiles",

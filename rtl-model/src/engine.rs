@@ -65,8 +65,10 @@ use crate::cmd::FrameCommands;
 use crate::config::EngineConfig;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
+use crate::frame_stats::Saturations;
 use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, DramBackendFactory, MemPort, MemoryLayout, Region, Tag};
+use crate::qformat::FixedFormats;
 use crate::schedule::{Schedule, fill_first_lines, release_order};
 use crate::timeline::{Occupancy, RequestSpan, Timeline};
 use crate::traversal::{line_ring, warp_lines};
@@ -117,6 +119,8 @@ pub struct FrameOutput {
 /// The hardware model: create one per configuration and run frames on it.
 pub struct Engine {
     cfg: EngineConfig,
+    /// The fixed mode's formats (`None`: float).
+    fixed: Option<FixedFormats>,
     buffer: LineBuffer,
     record: bool,
     record_requests: bool,
@@ -159,7 +163,16 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
-        Ok(Engine { cfg, buffer: LineBuffer::default(), record: false, record_requests: false, skip: true, backend })
+        let fixed = cfg.fixed_formats()?;
+        Ok(Engine {
+            cfg,
+            fixed,
+            buffer: LineBuffer::default(),
+            record: false,
+            record_requests: false,
+            skip: true,
+            backend,
+        })
     }
 
     /// Record a [`Timeline`] of every frame from now on (or stop). Values
@@ -197,6 +210,7 @@ impl Engine {
         let dst = cmd.derived_camera.sample_grid(cfg.supersample);
         let (dw, dh) = (dst.intrinsics.width, dst.intrinsics.height);
         let mut f = DestFrame::new(dw, dh);
+        let fixed = self.fixed.clone();
         let sizes: Vec<(u32, u32)> = refs.iter().map(|r| (r.width, r.height)).collect();
         let layout = MemoryLayout::new(cfg, (dw, dh), &sizes);
         let mut m = Machine {
@@ -210,7 +224,12 @@ impl Engine {
             port: MemPort::default(),
             cache: DestCache::new(cfg.dest_cache_bytes, cfg.tile_size, dw, dh),
             units: [Cycles::default(); 7],
-            stats: FrameStats { rects: vec![vec![0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1], ..FrameStats::default() },
+            stats: FrameStats {
+                rects: vec![vec![0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
+                saturations: fixed.as_ref().map(|_| Saturations::default()),
+                ..FrameStats::default()
+            },
+            fixed: fixed.as_ref(),
             ab: AbufferCounters::default(),
             timeline: self.record.then(|| Timeline::new(UNITS.len(), occupancy_series(cfg))),
         };
@@ -221,7 +240,11 @@ impl Engine {
         m.dram.tick(m.now);
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
         for (j, (warp, r)) in cmd.warps.iter().zip(refs).enumerate() {
-            let tu = TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
+            let tu = TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
+                .with_fixed(fixed.clone());
+            if let Some(sat) = &mut m.stats.saturations {
+                sat.fetch += r.fetch_saturations;
+            }
             let region = *layout.reference(j);
             m.run_warp(&mut f, &WarpInput { tu: &tu, r, number: j, dst, region }, &mut self.buffer);
             m.stats.reference_packed_bytes += r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
@@ -275,6 +298,8 @@ struct WarpInput<'a> {
 /// and the destination cache.
 struct Machine<'c> {
     cfg: &'c EngineConfig,
+    /// The fixed mode's formats (`None`: float).
+    fixed: Option<&'c FixedFormats>,
     /// Skip idle stretches ([`Engine::skip_idle`]).
     skip: bool,
     dram: Dram<Tag>,
@@ -397,7 +422,8 @@ impl Machine<'_> {
             max_distance: cfg.hole_max_distance,
         };
         let (ab, lanes, record) = (abuffer_params(cfg), cfg.hole_fill_per_cycle, self.timeline.is_some());
-        let mut p = FallbackStage::new(f, e, hole, lanes, ab, &self.cache, self.now, record)?;
+        let mut p = FallbackStage::new(f, e, hole, lanes, ab, &self.cache, self.now, record)?
+            .with_fixed(self.fixed.map(|f| (f.colour, f.hole_weight)));
         let start = self.now;
         self.cache.begin_warp(warp);
         loop {
@@ -437,6 +463,9 @@ impl Machine<'_> {
         s.fallback_tile_loads = self.cache.loads();
         s.fallback_tiles_written = c.tiles_written;
         s.unseen_pixels = p.changed_pixels().count_ones() as u64;
+        if let Some(sat) = &mut s.saturations {
+            sat.hole_fill += p.saturations();
+        }
         self.ab.add(p.abuffer_counters());
         Some(p.changed_pixels().clone())
     }
@@ -521,14 +550,15 @@ impl WarpPlan {
     fn new(cfg: &EngineConfig, w: &WarpInput<'_>, (dw, dh): (u32, u32)) -> WarpPlan {
         let size = (w.r.width, w.r.height);
         let lines = warp_lines(size.0, size.1, &w.tu.setup.epipole_reference);
-        let sched = Schedule::new(size, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size);
+        let sched = Schedule::new(size, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size, w.tu.fixed());
         let params = HoleFillParams {
             far_distance: cfg.hole_far_distance,
             far_offset: cfg.hole_far_offset,
             max_distance: cfg.hole_max_distance,
         };
         let epipole: Epipole = w.tu.setup.epipole_derived;
-        let fill = HoleFillUnit::new(dw, dh, &epipole, params);
+        let fill =
+            HoleFillUnit::new(dw, dh, &epipole, params).with_fixed(w.tu.fixed().map(|f| (f.colour, f.hole_weight)));
         let taps = HoleFillUnit::tap_offsets(&params);
         let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &taps);
         // The prefetch's list for the hole fill (none without a prefetch).
@@ -721,6 +751,13 @@ impl<'s> Pipeline<'s> {
         let fill = self.fill.unit().counters();
         s.hole_fill_filled += fill.filled;
         s.hole_fill_unreached += fill.unreached;
+        if let Some(sat) = &mut s.saturations {
+            let [t, k, r] = self.raster.saturations();
+            sat.transform += t;
+            sat.kernel_setup += k;
+            sat.raster += r;
+            sat.hole_fill += fill.saturations;
+        }
         let src = &self.fetch.cache.counters;
         s.source_cache.block_reads += src.block_reads;
         s.source_cache.evictions += src.evictions;

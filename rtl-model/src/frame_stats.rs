@@ -125,6 +125,38 @@ pub struct FrameStats {
     pub forced_merges: u64,
     /// Per unit, in [`UNITS`] order.
     pub units: [UnitCycles; 7],
+    /// Fixed mode only (`arith = "fixed"`; `None` in float mode): values
+    /// that saturated their Q format, per stage (counts).
+    pub saturations: Option<Saturations>,
+}
+
+/// Saturations of the fixed mode per stage (`docs/fixed-point.md`; counts
+/// of values, over the sets both engines share).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Saturations {
+    /// Reference expansion: colour channels, 1/Z, slopes of every valid
+    /// sample of each warped reference, and samples dropped for their
+    /// coordinates.
+    pub fetch: u64,
+    /// Transform: positions, derived 1/Z, `E` and edge corners of the
+    /// drawn kernels.
+    pub transform: u64,
+    /// Kernel setup: saturated shared corners used by the drawn kernels.
+    pub kernel_setup: u64,
+    /// Raster: derived slopes of the drawn kernels.
+    pub raster: u64,
+    /// Hole fill (and its fallback pass): fill colours and weights.
+    pub hole_fill: u64,
+}
+
+impl Saturations {
+    /// The stages' names, in field order (`saturations.<stage>`).
+    pub const STAGES: [&'static str; 5] = ["fetch", "transform", "kernel_setup", "raster", "hole_fill"];
+
+    /// The counts in [`Saturations::STAGES`] order.
+    pub fn values(&self) -> [u64; 5] {
+        [self.fetch, self.transform, self.kernel_setup, self.raster, self.hole_fill]
+    }
 }
 
 /// Composite verdict names, in [`FrameStats::composite`] order.
@@ -274,6 +306,27 @@ pub const FRAME_STATS: &[StatDef] = &[
     StatDef::counter("empty_samples", "samples", "derived samples with neither surface nor fill at the end"),
     StatDef::counter("fragments_per_pixel.<fragments>", "pixels", "derived pixels by A-buffer fragments needed"),
     StatDef::counter("forced_merges", "merges", "A-buffer merges forced by abuffer_fragments in write-backs"),
+    StatDef::counter(
+        "saturations.fetch",
+        "values",
+        "fixed mode only: reference colour channels, 1/Z and slopes that saturated, and samples dropped for their coordinates",
+    ),
+    StatDef::counter(
+        "saturations.transform",
+        "values",
+        "fixed mode only: positions, derived 1/Z, E and edge corners of drawn kernels that saturated",
+    ),
+    StatDef::counter(
+        "saturations.kernel_setup",
+        "values",
+        "fixed mode only: saturated shared corners used by drawn kernels",
+    ),
+    StatDef::counter("saturations.raster", "values", "fixed mode only: derived slopes of drawn kernels that saturated"),
+    StatDef::counter(
+        "saturations.hole_fill",
+        "values",
+        "fixed mode only: hole-fill colours and weights that saturated (fallback pass included)",
+    ),
     StatDef::counter("units.<unit>.busy", "cycles", "cycles the unit moved work"),
     StatDef::counter("units.<unit>.stall", "cycles", "cycles the unit had work but waited"),
     StatDef::counter("units.<unit>.idle", "cycles", "cycles the unit had nothing to do"),
@@ -407,6 +460,11 @@ impl FrameStats {
             put(format!("fragments_per_pixel.{k}"), n);
         }
         put("forced_merges".into(), self.forced_merges);
+        if let Some(sat) = &self.saturations {
+            for (stage, n) in Saturations::STAGES.iter().zip(sat.values()) {
+                put(format!("saturations.{stage}"), n);
+            }
+        }
         for (name, u) in UNITS.iter().zip(&self.units) {
             put(format!("units.{name}.busy"), u.busy);
             put(format!("units.{name}.stall"), u.stall);
@@ -430,6 +488,7 @@ mod tests {
             tile_evictions: vec![3, 4],
             rects: vec![vec![0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
             fragments_per_pixel: vec![1, 2, 3],
+            saturations: Some(Saturations { raster: 7, ..Saturations::default() }),
             ..FrameStats::default()
         };
         s.rects[2][3] = 5;
@@ -442,6 +501,9 @@ mod tests {
         assert!(flat.contains(&("rects.2x3".to_string(), 5)));
         assert!(flat.contains(&("dram.latency.17".to_string(), 1)));
         assert!(flat.contains(&("tile_loads.1".to_string(), 4)));
+        assert!(flat.contains(&("saturations.raster".to_string(), 7)));
+        let float = FrameStats { saturations: None, ..s.clone() }.flat();
+        assert!(!float.iter().any(|(n, _)| n.starts_with("saturations.")), "float mode has none");
         assert_eq!(frame_stat_def("units.raster.stall").map(|d| d.unit), Some("cycles"));
         assert!(frame_stat_def("units.raster").is_none());
         assert!(frame_stat_def("rects.23").is_none());

@@ -16,6 +16,7 @@
 //! writes the A-buffer format directly, TR98 §10).
 
 use crate::config::EngineConfig;
+use crate::qformat::{FixedFormats, QFormat};
 use crate::sample_image::SampleImage;
 use crate::schedule::CoarseDepth;
 use crate::traversal::Major;
@@ -42,6 +43,12 @@ pub struct HwReference {
     recs: Vec<RefSample>,
     /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     pub(crate) grid: Grid,
+    /// Fixed mode: the format the expander rounds 1/Z to ([`HwReference::inv_z`]).
+    ref_inv_z: Option<QFormat>,
+    /// Fixed mode: values the expander saturated (colour channels, 1/Z,
+    /// slopes, and samples dropped for coordinates beyond `q_ref_coord`),
+    /// over every valid sample (counts; 0 in float mode).
+    pub fetch_saturations: u64,
     /// `valid`, one word per 8x8 tile of [`Grid`].
     valid_tiles: Vec<u64>,
 }
@@ -108,6 +115,17 @@ impl<'a> Line<'a> {
 }
 
 impl HwReference {
+    /// The 1/Z the units read of record `rec`: [`RefSample::inv_z`],
+    /// rounded to `q_ref_inv_z` in fixed mode.
+    #[inline(always)]
+    pub(crate) fn inv_z(&self, rec: &RefSample) -> f64 {
+        let v = rec.inv_z();
+        match self.ref_inv_z {
+            None => v,
+            Some(f) => f.quantise(v).0,
+        }
+    }
+
     #[inline(always)]
     pub(crate) fn valid_at(&self, gi: usize) -> bool {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
@@ -177,8 +195,14 @@ impl HwReference {
     pub fn new(img: &SampleImage, cfg: &EngineConfig) -> HwReference {
         let mut counters = AbufferCounters::default();
         let packed = abuffer::pack_reference(img, &abuffer_params(cfg), &mut counters);
-        let samples = packed.unpack();
-        let depth = CoarseDepth::new(&samples);
+        let mut samples = packed.unpack();
+        let fixed = cfg.fixed_formats().ok().flatten();
+        let fetch_saturations = fixed.as_ref().map_or(0, |f| quantise_expanded(&mut samples, f));
+        let ref_inv_z = fixed.as_ref().map(|f| f.ref_inv_z);
+        let depth = match ref_inv_z {
+            None => CoarseDepth::new(&samples),
+            Some(f) => CoarseDepth::with_inv_z(&samples, |i| f.quantise(1.0 / samples.z[i] as f64).0),
+        };
         let w = samples.width as usize;
         let grid = Grid::new(samples.width, samples.height);
         let mut valid_tiles = vec![0u64; grid.len() / 64];
@@ -195,6 +219,35 @@ impl HwReference {
             recs: records(&samples),
             grid,
             valid_tiles,
+            ref_inv_z,
+            fetch_saturations,
         }
     }
+}
+
+/// The fixed mode's expander (`docs/fixed-point.md`, fetch): every valid
+/// sample's colour to `q_colour` and slopes to `q_slope` (held in the FP32
+/// records), its 1/Z checked against `q_ref_inv_z` (rounded where read,
+/// [`HwReference::inv_z`]); a sample whose `(x + ½, y + ½)` exceeds
+/// `q_ref_coord` is dropped (no surface). Returns the saturations.
+fn quantise_expanded(s: &mut SampleImage, f: &FixedFormats) -> u64 {
+    let w = s.width as usize;
+    let mut sat = 0u32;
+    let ones: Vec<usize> = s.valid.iter_ones().collect();
+    for i in ones {
+        let (x, y) = ((i % w) as f64, (i / w) as f64);
+        if x + 0.5 > f.ref_coord.max() || y + 0.5 > f.ref_coord.max() {
+            sat += 1;
+            s.valid.set(i, false);
+            continue;
+        }
+        for c in &mut s.colour[i] {
+            *c = f.colour.q(*c as f64, &mut sat) as f32;
+        }
+        for g in &mut s.inv_z_slopes[i] {
+            *g = f.slope.q(*g as f64, &mut sat) as f32;
+        }
+        f.ref_inv_z.q(1.0 / s.z[i] as f64, &mut sat);
+    }
+    sat as u64
 }

@@ -7,7 +7,8 @@
 //!   PNG/EXR files or the command line;
 //! - it never calls the golden model; the golden model never calls its units.
 //!   The two share only the plain data types in [`camera`], [`sample_image`],
-//!   [`cmd`] and [`fixed`].
+//!   [`cmd`] and [`fixed`], and the fixed mode's format primitives in
+//!   [`qformat`] (each engine applies them in its own code).
 #![warn(missing_docs)]
 
 pub mod bits;
@@ -25,6 +26,7 @@ pub mod hw_reference;
 pub mod knob;
 pub mod lru;
 pub mod mem;
+pub mod qformat;
 pub mod sample_image;
 pub mod schedule;
 pub mod stats;

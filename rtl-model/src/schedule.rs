@@ -50,6 +50,7 @@
 //! per reference warp).
 
 use crate::camera::WarpSetup;
+use crate::qformat::FixedFormats;
 use crate::sample_image::SampleImage;
 use crate::traversal::{Line, Major, sweep_of};
 
@@ -71,13 +72,19 @@ pub struct CoarseDepth {
 impl CoarseDepth {
     /// The coarse depth map of a reference.
     pub fn new(img: &SampleImage) -> CoarseDepth {
+        CoarseDepth::with_inv_z(img, |i| 1.0 / img.z[i] as f64)
+    }
+
+    /// The coarse depth map of a reference whose sample `i` has 1/Z
+    /// `inv_z(i)` (the fixed mode's rounded 1/Z).
+    pub fn with_inv_z(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> CoarseDepth {
         let (w, h) = (img.width, img.height);
         let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
         let mut lo = vec![f64::INFINITY; (bw * bh) as usize];
         let mut hi = vec![f64::NEG_INFINITY; (bw * bh) as usize];
         for i in img.valid.iter_ones() {
             let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
-            let iz = 1.0 / img.z[i] as f64;
+            let iz = inv_z(i);
             let s = img.inv_z_slopes[i];
             let r = 0.5 * (s[0].abs() as f64 + s[1].abs() as f64);
             let b = ((y / BLOCK) * bw + x / BLOCK) as usize;
@@ -224,7 +231,8 @@ fn chunk_bounds(
 impl Schedule {
     /// The schedule of warping a `size` (width, height) reference (coarse depth `depth`) with `setup`
     /// in the order `lines` into a `dst` (width, height) derived image of
-    /// `tile`-sample tiles.
+    /// `tile`-sample tiles; with `fixed`, the bounds are those of the fixed
+    /// mode's kernels ([`FixedFormats::reach`]).
     pub fn new(
         size: (u32, u32),
         depth: &CoarseDepth,
@@ -232,6 +240,7 @@ impl Schedule {
         lines: Vec<Line>,
         dst: (u32, u32),
         tile: u32,
+        fixed: Option<&FixedFormats>,
     ) -> Schedule {
         let tiles = (dst.0.div_ceil(tile), dst.1.div_ceil(tile));
         let mut retire: Vec<Option<u32>> = vec![None; (tiles.0 * tiles.1) as usize];
@@ -242,7 +251,14 @@ impl Schedule {
             let mut a = l.lo;
             while a <= l.hi {
                 let b = (a + CHUNK - 1).min(l.hi);
-                let bounds = chunk_bounds(setup, depth, l.major, l.line, a, b, size);
+                let mut bounds = chunk_bounds(setup, depth, l.major, l.line, a, b, size);
+                // Fixed mode: where its rounded, saturating kernels can reach.
+                if let (Some(f), Some((x0, x1, y0, y1))) = (fixed, bounds)
+                    && x0 <= x1
+                {
+                    let ((x0, x1), (y0, y1)) = (f.reach(x0, x1), f.reach(y0, y1));
+                    bounds = Some((x0, x1, y0, y1));
+                }
                 // Tiles the chunk's kernels may touch (all if unbounded).
                 let touched = match bounds {
                     None => Some((0, tiles.0 - 1, 0, tiles.1 - 1)),

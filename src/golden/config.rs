@@ -15,7 +15,9 @@
 //! (`postwarp_rtl::knob_choice!`); their `clap` names (the command line)
 //! must equal their `NAMES`, which `tests/knob_table.rs` checks.
 
+use postwarp_rtl::config::{ARITH_MODES, ARITH_MODES_UNIT, QFORMAT_RANGE};
 use postwarp_rtl::knob::{CrossRule, Range};
+use postwarp_rtl::qformat::FixedFormats;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 postwarp_rtl::knob_choice! {
@@ -94,14 +96,79 @@ postwarp_rtl::knob_table! {
              order), or forward";
         reconstruction: Reconstruction = Reconstruction::AaRect; Range::Choice(Reconstruction::NAMES),
             Reconstruction::UNIT, "§7.2 anti-aliased flat rectangles, or §7.1 mesh + edge splats";
+        /// Shared with the hardware table by name (`docs/fixed-point.md`).
+        arith: String = "float".into(); Range::Choice(ARITH_MODES), ARITH_MODES_UNIT,
+            "arithmetic: `float` (FP64, FP32 planes) or `fixed` (the hardware's fixed-point mode, quantised at the \
+             same points with the same rules; `aa-rect` only; `docs/fixed-point.md`)";
+        q_ref_coord: String = "Q16_4".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: reference sample coordinates (x ± 1/2, y ± 1/2)";
+        q_ref_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: reference 1/Z";
+        q_numerator: String = "Q18_14".into(); QFORMAT_RANGE, "Q format", "fixed mode: warp numerators N.x, N.y";
+        q_denominator: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: warp denominator W";
+        q_reciprocal: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: 1/W, by seed table and Newton–Raphson steps";
+        recip_table_bits: u32 = 8; Range::Int { min: 1, max: 16 }, "bits",
+            "fixed mode: index bits of the reciprocal's seed table";
+        recip_iterations: u32 = 2; Range::Int { min: 0, max: 4 }, "iterations",
+            "fixed mode: Newton–Raphson steps after the seed";
+        q_position: String = "Q16_16".into(); QFORMAT_RANGE, "Q format", "fixed mode: derived positions (x', y')";
+        q_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: derived 1/Z";
+        q_slope: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: slopes of 1/Z (reference and derived) and the expected spacing E";
+        q_corner: String = "Q16_16".into(); QFORMAT_RANGE, "Q format", "fixed mode: kernel corners";
+        q_colour: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: colour channels";
+        q_hole_weight: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
+            "fixed mode: hole-fill weights 1/d and their sums";
     }
 }
 
-/// No rule between golden knobs is checked (`fallback_fill` without
-/// `hole_fill` has nothing to extend and does nothing).
-const CROSS_RULES: &[CrossRule<GoldenConfig>] = &[];
+/// The rules between golden knobs (`fallback_fill` without `hole_fill`
+/// has nothing to extend and does nothing, and is not one).
+const CROSS_RULES: &[CrossRule<GoldenConfig>] = &[
+    CrossRule {
+        name: "fixed_precision",
+        rule: "with `arith = \"fixed\"`: the hardware table's `fixed_precision` rule (`docs/fixed-point.md`)",
+        check: |c| c.fixed_formats().map(|_| ()),
+    },
+    CrossRule {
+        name: "fixed_aa_rect",
+        rule: "`arith = \"fixed\"` needs `reconstruction = \"aa-rect\"` (the hardware's path)",
+        check: |c| {
+            if c.arith == "fixed" && c.reconstruction != Reconstruction::AaRect {
+                return Err(format!(
+                    "arith = \"fixed\": expected reconstruction = \"aa-rect\" (the fixed mode is the hardware's \
+                     path), got \"{}\"",
+                    c.reconstruction.name()
+                ));
+            }
+            Ok(())
+        },
+    },
+];
 
 impl GoldenConfig {
+    /// The fixed mode's formats (`None` with `arith = "float"`); errors
+    /// name the knob. The golden model's own reading of its knobs.
+    pub fn fixed_formats(&self) -> Result<Option<FixedFormats>, String> {
+        if self.arith != "fixed" {
+            return Ok(None);
+        }
+        let q = [
+            &self.q_ref_coord,
+            &self.q_ref_inv_z,
+            &self.q_numerator,
+            &self.q_denominator,
+            &self.q_reciprocal,
+            &self.q_position,
+            &self.q_inv_z,
+            &self.q_slope,
+            &self.q_corner,
+            &self.q_colour,
+            &self.q_hole_weight,
+        ];
+        FixedFormats::from_knobs(q.map(|s| s.as_str()), self.recip_table_bits, self.recip_iterations).map(Some)
+    }
+
     /// Check the knobs against their ranges in [`KNOBS`]; the message
     /// starts with the knob's name.
     pub fn validate(&self) -> Result<(), String> {

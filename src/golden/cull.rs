@@ -78,6 +78,16 @@ pub struct BlockDepth {
 
 /// The depth ranges of `img`'s blocks.
 pub fn block_depth(img: &SampleImage) -> BlockDepth {
+    block_depth_with(img, |i| 1.0 / img.z[i] as f64)
+}
+
+/// The depth ranges of `img`'s blocks with the 1/Z plane `inv_z` (the
+/// fixed mode's rounded 1/Z).
+pub fn block_depth_of(img: &SampleImage, inv_z: &[f64]) -> BlockDepth {
+    block_depth_with(img, |i| inv_z[i])
+}
+
+fn block_depth_with(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> BlockDepth {
     let (w, h) = (img.width, img.height);
     let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
     let mut lo = vec![f64::INFINITY; (bw * bh) as usize];
@@ -89,7 +99,7 @@ pub fn block_depth(img: &SampleImage) -> BlockDepth {
             if !img.valid[i] {
                 continue;
             }
-            let iz = 1.0 / img.z[i] as f64;
+            let iz = inv_z(i);
             let s = img.inv_z_slopes[i];
             let r = 0.5 * (s[0].abs() as f64 + s[1].abs() as f64);
             let b = (row + x / BLOCK) as usize;
@@ -148,6 +158,11 @@ pub fn live_blocks(ctx: &WarpContext, depth: &BlockDepth, dw: u32, dh: u32) -> L
                     reach[2].min(wp.position.y),
                     reach[3].max(wp.position.y),
                 ];
+            }
+            if let (Some(f), true) = (ctx.fixed(), bounded) {
+                // Fixed mode: where its rounded, saturating kernels can reach.
+                ((reach[0], reach[1]), (reach[2], reach[3])) =
+                    (f.reach(reach[0], reach[1]), f.reach(reach[2], reach[3]));
             }
             let off = bounded
                 && (reach[1] < -margin

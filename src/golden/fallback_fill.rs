@@ -34,7 +34,7 @@
 //!
 //! Work: as `hole_fill.rs`, proportional to the empty samples.
 
-use super::hole_fill::{HoleFillParams, set_fill};
+use super::hole_fill::{HoleFillParams, mean, set_fill};
 use super::planes::DestPlanes;
 use super::traversal::{Major, OrderKey};
 use postwarp_rtl::camera::Epipole;
@@ -46,6 +46,8 @@ pub struct FallbackStats {
     pub filled: u64,
     /// Empty samples it could not reach (left empty).
     pub unreached: u64,
+    /// Fixed mode: values that saturated (fill colours, weights).
+    pub saturations: u64,
 }
 
 /// Rules 1–5 on `d` for the last warp's derived-image epipole `e`: the
@@ -112,9 +114,9 @@ pub fn fallback_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> (Fa
                 *acc += v as f64;
             }
         }
-        let c = sum.map(|v| (v / n as f64) as f32);
+        let c = mean(sum, n as f64, p, &mut st.saturations);
         // Rule 4.
-        set_fill(d, i, c, dist);
+        st.saturations += set_fill(d, i, c, dist, p) as u64;
         st.filled += 1;
         filled.push(i);
     }
@@ -127,7 +129,7 @@ mod tests {
     use glam::DVec3;
 
     fn params() -> HoleFillParams {
-        HoleFillParams { far_distance: 4, far_offset: 4, max_distance: 63 }
+        HoleFillParams { far_distance: 4, far_offset: 4, max_distance: 63, fixed: None }
     }
 
     /// Forward order toward +x: Mark's pass cannot reach the samples left

@@ -120,6 +120,27 @@ pub struct GoldenStats {
     pub fragments_per_pixel: Vec<u64>,
     /// A-buffer merges forced by the fragment limit (derived frame stores).
     pub forced_merges: u64,
+    /// Fixed mode only (`None` in float mode): values that saturated their
+    /// Q format, per stage, over the same sets as the hardware model's.
+    pub saturations: Option<SaturationCounts>,
+}
+
+/// The fixed mode's saturations per stage (`docs/fixed-point.md`; counts of
+/// values): the golden model's count of what the hardware's
+/// `saturations.*` count.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SaturationCounts {
+    /// Reference colour channels, 1/Z, slopes (every valid sample of each
+    /// warped reference) and samples dropped for their coordinates.
+    pub fetch: u64,
+    /// Positions, derived 1/Z, `E` and edge corners of the drawn kernels.
+    pub transform: u64,
+    /// Saturated shared corners used by the drawn kernels.
+    pub kernel_setup: u64,
+    /// Derived slopes of the drawn kernels.
+    pub raster: u64,
+    /// Hole-fill colours and weights, fallback pass included.
+    pub hole_fill: u64,
 }
 
 /// The golden model's output for one derived frame.
@@ -147,8 +168,12 @@ pub struct PreparedReference {
     pub abuffer: AbufferStats,
     /// Per-block depth ranges for off-screen culling.
     pub blocks: cull::BlockDepth,
-    /// `1/Z` of every sample (0 where there is no surface), computed once.
+    /// `1/Z` of every sample (0 where there is no surface), computed once
+    /// (rounded to `q_ref_inv_z` in fixed mode).
     pub inv_z: Vec<f64>,
+    /// Fixed mode: values the reference's expansion saturated (counts; 0 in
+    /// float mode).
+    pub fetch_saturations: u64,
 }
 
 fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
@@ -158,10 +183,38 @@ fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
 /// Rule 1.
 pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
     let mut abuffer = AbufferStats::default();
-    let samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
-    let blocks = cull::block_depth(&samples);
-    let inv_z = inv_z_plane(&samples);
-    PreparedReference { samples, abuffer, blocks, inv_z }
+    let mut samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
+    let Some(f) = cfg.fixed_formats().ok().flatten() else {
+        let blocks = cull::block_depth(&samples);
+        let inv_z = inv_z_plane(&samples);
+        return PreparedReference { samples, abuffer, blocks, inv_z, fetch_saturations: 0 };
+    };
+    // Fixed mode (`docs/fixed-point.md`, fetch): colours to `q_colour`,
+    // slopes to `q_slope`, 1/Z to `q_ref_inv_z`; a sample whose
+    // (x + ½, y + ½) exceeds `q_ref_coord` is dropped.
+    let w = samples.width as usize;
+    let mut sat = 0u32;
+    let valid: Vec<usize> = samples.valid.iter_ones().collect();
+    for i in valid {
+        let (x, y) = ((i % w) as f64, (i / w) as f64);
+        if x + 0.5 > f.ref_coord.max() || y + 0.5 > f.ref_coord.max() {
+            sat += 1;
+            samples.valid.set(i, false);
+            continue;
+        }
+        for c in &mut samples.colour[i] {
+            *c = f.colour.q(*c as f64, &mut sat) as f32;
+        }
+        for g in &mut samples.inv_z_slopes[i] {
+            *g = f.slope.q(*g as f64, &mut sat) as f32;
+        }
+    }
+    let mut inv_z = inv_z_plane(&samples);
+    for i in samples.valid.iter_ones() {
+        inv_z[i] = f.ref_inv_z.q(inv_z[i], &mut sat);
+    }
+    let blocks = cull::block_depth_of(&samples, &inv_z);
+    PreparedReference { samples, abuffer, blocks, inv_z, fetch_saturations: sat as u64 }
 }
 
 /// The 1/Z plane of a reference: `1/Z` where valid, 0 elsewhere (made
@@ -186,10 +239,16 @@ impl Warper {
         let mut st =
             GoldenStats { kernel_sizes: vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1], ..Default::default() };
         let mut ab = AbufferStats::default();
+        let fixed = cfg.fixed_formats().ok().flatten();
+        st.saturations = fixed.as_ref().map(|_| SaturationCounts::default());
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
         for (j, (warp, prepared)) in cmd.warps.iter().zip(refs).enumerate() {
             let img = &prepared.samples;
-            let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin);
+            let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
+                .with_fixed(fixed.clone());
+            if let Some(s) = &mut st.saturations {
+                s.fetch += prepared.fetch_saturations;
+            }
             d.begin_warp();
             match cfg.reconstruction {
                 Reconstruction::AaRect => {
@@ -242,6 +301,9 @@ fn fallback(
     let (fb, filled) = fallback_fill(d, e, &hole_fill_params(cfg));
     st.fallback_filled += fb.filled;
     st.fallback_unreached += fb.unreached;
+    if let Some(s) = &mut st.saturations {
+        s.hole_fill += fb.saturations;
+    }
     let pw = (d.width / ss) as usize;
     let mut pixels = BitVec::repeat(false, pw * (d.height / ss) as usize);
     for i in filled {
@@ -258,12 +320,16 @@ fn hole_fill_params(cfg: &GoldenConfig) -> HoleFillParams {
         far_distance: cfg.hole_far_distance,
         far_offset: cfg.hole_far_offset,
         max_distance: cfg.hole_max_distance,
+        fixed: cfg.fixed_formats().ok().flatten().map(|f| (f.colour, f.hole_weight)),
     }
 }
 
 fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
     st.hole_fill_filled += hf.filled;
     st.hole_fill_unreached += hf.unreached;
+    if let Some(s) = &mut st.saturations {
+        s.hole_fill += hf.saturations;
+    }
 }
 
 /// The golden model with its working buffers: create one and reuse it for

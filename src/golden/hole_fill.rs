@@ -21,6 +21,11 @@
 //!    `C ← (C·Wt + c/d)/(Wt + 1/d)`, `Wt ← Wt + 1/d` (TR98 §9.1); real
 //!    surfaces always win.
 //!
+//! 6. Fixed mode (`docs/fixed-point.md`): the mean rounds to `q_colour`;
+//!    in rule 5, `1/d` and `Wt + 1/d` round to `q_hole_weight`, the
+//!    quotient to `q_colour` (a zero weight sum takes the fill colour
+//!    itself); saturations are counted. The planes stay `f32`.
+//!
 //! Work: one scan of the fill-valid plane (a word at a time), then per
 //! sample without a valid fill colour its rank, a sort, and at most 5 tap
 //! reads with their ranks: bounded by the derived image size, whatever the
@@ -29,6 +34,7 @@
 use super::planes::DestPlanes;
 use super::traversal::{Major, OrderKey};
 use postwarp_rtl::camera::Epipole;
+use postwarp_rtl::qformat::QFormat;
 
 /// Counters of one hole-fill pass.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -39,6 +45,8 @@ pub struct HoleFillStats {
     pub unreached: u64,
     /// Fills that used the two far taps.
     pub far_taps_used: u64,
+    /// Fixed mode: values that saturated (fill colours, weights).
+    pub saturations: u64,
 }
 
 /// Knobs of the pass.
@@ -50,6 +58,8 @@ pub struct HoleFillParams {
     pub far_offset: u32,
     /// Saturation of the distance plane (samples).
     pub max_distance: u32,
+    /// Fixed mode: the colour and weight formats (`None`: float; rule 6).
+    pub fixed: Option<(QFormat, QFormat)>,
 }
 
 /// Run one pass over `d` for a warp whose derived-image epipole is `e`.
@@ -118,30 +128,60 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
             }
         }
         let n = taps.len() as f64;
-        let c = c.map(|v| (v / n) as f32);
+        let c = mean(c, n, p, &mut st.saturations);
         st.filled += 1;
-        set_fill(d, i, c, dist);
+        st.saturations += set_fill(d, i, c, dist, p) as u64;
     }
     st
 }
 
+/// The fill colour `sum / n` (rule 6 in fixed mode: rounded to
+/// `q_colour`, saturations added to `sat`). Shared with the fallback pass.
+pub(super) fn mean(sum: [f64; 3], n: f64, p: &HoleFillParams, sat: &mut u64) -> [f32; 3] {
+    match p.fixed {
+        None => sum.map(|v| (v / n) as f32),
+        Some((col, _)) => {
+            let mut s = 0;
+            let c = sum.map(|v| col.q(v / n, &mut s) as f32);
+            *sat += s as u64;
+            c
+        }
+    }
+}
+
 /// Store fill colour `c` at distance `dist` in sample `i` (planes 6–8) and,
 /// if it holds no real surface, accumulate it into planes 1, 5 and 9
-/// (rule 5). Shared with the fallback pass (`fallback_fill.rs`).
-pub(super) fn set_fill(d: &mut DestPlanes, i: usize, c: [f32; 3], dist: u32) {
+/// (rule 5; in fixed mode rule 6), returning the fixed mode's
+/// saturations. Shared with the fallback pass (`fallback_fill.rs`).
+pub(super) fn set_fill(d: &mut DestPlanes, i: usize, c: [f32; 3], dist: u32, p: &HoleFillParams) -> u32 {
     d.fill_colour[i] = c;
     d.fill_valid.set(i, true);
     d.fill_distance[i] = dist as u8;
+    let mut sat = 0;
     if !d.real[i] {
         let wt = d.fill_weight[i] as f64;
-        let inv_d = 1.0 / dist as f64;
         let old = if d.hole[i] { d.colour[i] } else { [0.0; 3] };
-        for k in 0..3 {
-            d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+        match p.fixed {
+            None => {
+                let inv_d = 1.0 / dist as f64;
+                for k in 0..3 {
+                    d.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+                }
+                d.fill_weight[i] = (wt + inv_d) as f32;
+            }
+            Some((col, wf)) => {
+                let inv_d = wf.q(1.0 / dist as f64, &mut sat);
+                let den = wf.q(wt + inv_d, &mut sat);
+                for k in 0..3 {
+                    let v = if den > 0.0 { (old[k] as f64 * wt + c[k] as f64 * inv_d) / den } else { c[k] as f64 };
+                    d.colour[i][k] = col.q(v, &mut sat) as f32;
+                }
+                d.fill_weight[i] = den as f32;
+            }
         }
-        d.fill_weight[i] = (wt + inv_d) as f32;
         d.hole.set(i, true);
     }
+    sat
 }
 
 #[cfg(test)]
@@ -150,7 +190,7 @@ mod tests {
     use glam::DVec3;
 
     fn params() -> HoleFillParams {
-        HoleFillParams { far_distance: 4, far_offset: 4, max_distance: 63 }
+        HoleFillParams { far_distance: 4, far_offset: 4, max_distance: 63, fixed: None }
     }
 
     /// A 12x6 frame: columns 0..4 background (colour 0.2), 4..8 a hole,

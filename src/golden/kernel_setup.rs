@@ -111,6 +111,53 @@ pub fn corners(
     (out, edges)
 }
 
+/// [`corners`] with the reference's 1/Z `inv_z` at the sample (rounded in
+/// fixed mode) and the fixed mode's saturations: those of the edge
+/// corners' warps (the transform's) and of the shared corners used
+/// (`group_sat(gx, gy)`: kernel setup's), `[transform, kernel_setup]`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn corners_counted(
+    ctx: &WarpContext,
+    img: &SampleImage,
+    inv_z: f64,
+    t: &Transformed,
+    group_at: impl Fn(u32, u32) -> (GroupState, DVec2),
+    group_sat: impl Fn(u32, u32) -> bool,
+    x: u32,
+    y: u32,
+) -> ([DVec2; 4], u32, [u32; 2]) {
+    let (w, h) = (img.width, img.height);
+    let i = img.index(x, y);
+    let mut out = [DVec2::ZERO; 4];
+    let mut edges = 0;
+    let mut sat = [0; 2];
+    for (k, (sx, sy)) in [(-1i32, -1i32), (1, -1), (-1, 1), (1, 1)].into_iter().enumerate() {
+        let gx = x as i64 + if sx < 0 { -1 } else { 0 };
+        let gy = y as i64 + if sy < 0 { -1 } else { 0 };
+        let shared = if gx >= 0 && gy >= 0 && (gx as u32) + 1 < w && (gy as u32) + 1 < h {
+            let g = group_at(gx as u32, gy as u32);
+            (g.0 == GroupState::Shared).then(|| (g.1, group_sat(gx as u32, gy as u32)))
+        } else {
+            None
+        };
+        out[k] = match shared {
+            Some((c, s)) => {
+                sat[1] += s as u32;
+                c
+            }
+            None => {
+                edges += 1;
+                let (c, n) =
+                    ctx.edge_corner_counted(x as f64, y as f64, inv_z, img.inv_z_slopes[i], sx as f64, sy as f64);
+                sat[0] += n;
+                c.unwrap_or(t.pos)
+            }
+        };
+    }
+    (out, edges, sat)
+}
+
 /// Rule 4: `(x0, x1, y0, y1)`.
 #[inline(always)]
 pub fn bounding_box(c: &[DVec2; 4]) -> (f64, f64, f64, f64) {
@@ -129,7 +176,7 @@ mod tests {
     use super::*;
 
     fn t(x: f64, y: f64) -> Transformed {
-        Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 }
+        Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0, sat: 0 }
     }
 
     #[test]

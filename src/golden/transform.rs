@@ -28,10 +28,25 @@
 //!    warped samples (TR98 §7.1 "poorly sampled": density below 1/2, that
 //!    is footprint above 2). Infinite when J is not finite.
 //!
-//! Not modelled: fixed-point datapaths (FP64 here, stored as FP32).
+//! Fixed mode (`arith = "fixed"`, `docs/fixed-point.md`; the golden
+//! model's own code for the hardware's rules): the numerator's sums
+//! (per-warp constants times fixed-point inputs, in FP64) round to
+//! `q_numerator`/`q_denominator`, `1/W` is the seed table and
+//! Newton–Raphson reciprocal in `q_reciprocal` (`qformat` rule 5),
+//! `x' = N·(1/W)` an exact product rounded to `q_position`, `1/Z₂` to
+//! `q_inv_z`, `E` to `q_slope`, edge corners to `q_corner`. A numerator,
+//! denominator or reciprocal that saturates culls the sample (an edge
+//! corner: the sample's own position, counted); a position, 1/Z, `E` or
+//! corner that saturates takes the end of its range, counted
+//! ([`Transformed::sat`]).
+//!
+//! Not modelled: fixed-point datapaths in float mode (FP64 here, stored as
+//! FP32); in fixed mode the derived slopes, Jacobian and better mask are
+//! FP64 inside.
 
 use glam::{DMat2, DMat3, DVec2, DVec3};
 use postwarp_rtl::camera::Epipole;
+use postwarp_rtl::qformat::FixedFormats;
 use postwarp_rtl::{Camera, WarpSetup};
 
 /// A warped sample.
@@ -43,6 +58,9 @@ pub struct Transformed {
     pub inv_z: f64,
     /// Expected spacing `E` (derived samples per reference sample step).
     pub e: f64,
+    /// Fixed mode: values of this warp that saturated (position, 1/Z,
+    /// `E`; counts, 0 in float mode).
+    pub sat: u32,
 }
 
 /// Everything the transform needs for one reference warp.
@@ -67,6 +85,8 @@ pub struct WarpContext {
     inv_f_dst: (f64, f64),
     /// Reference camera-to-world rotation as a matrix.
     rot_src: DMat3,
+    /// The fixed mode's formats (`None`: float).
+    fixed: Option<FixedFormats>,
 }
 
 fn focal(c: &Camera) -> f64 {
@@ -124,14 +144,72 @@ impl WarpContext {
             inv_f_src: (1.0 / src.intrinsics.fx, 1.0 / src.intrinsics.fy),
             inv_f_dst: (1.0 / dst.intrinsics.fx, 1.0 / dst.intrinsics.fy),
             rot_src: src.pose.rotation(),
+            fixed: None,
         }
+    }
+
+    /// The context in the fixed mode of `fixed` (module doc; `None`: float).
+    pub fn with_fixed(mut self, fixed: Option<FixedFormats>) -> Self {
+        self.fixed = fixed;
+        self
+    }
+
+    /// The fixed mode's formats, if any.
+    pub fn fixed(&self) -> Option<&FixedFormats> {
+        self.fixed.as_ref()
     }
 
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if behind the derived
     /// camera or not finite.
     pub fn transform(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+        if let Some(f) = &self.fixed {
+            return fixed_transform(self, f, x, y, inv_z);
+        }
         let ([px, py, iz, e], ok) = self.transform_of(x, y, inv_z);
-        ok.then(|| Transformed { pos: DVec2::new(px, py), inv_z: iz, e })
+        ok.then(|| Transformed { pos: DVec2::new(px, py), inv_z: iz, e, sat: 0 })
+    }
+
+    /// [`WarpContext::transform_batch`] in the fixed mode: `sat[k]` gets
+    /// the saturations of sample `k` (module doc).
+    pub fn transform_batch_fixed(
+        &self,
+        x0: f64,
+        y: f64,
+        inv_z: &[f64],
+        out: &mut [[f64; 4]],
+        ok: &mut [bool],
+        sat: &mut [u32],
+    ) {
+        let Some(f) = &self.fixed else { return self.transform_batch(x0, y, inv_z, out, ok) };
+        let n = out.len().min(BATCH);
+        for k in 0..n {
+            match fixed_transform(self, f, x0 + k as f64, y, inv_z[k]) {
+                Some(t) => (out[k], ok[k], sat[k]) = ([t.pos.x, t.pos.y, t.inv_z, t.e], true, t.sat),
+                None => (ok[k], sat[k]) = (false, 0),
+            }
+        }
+    }
+
+    /// Exact edge corner in either mode, with the fixed mode's saturations
+    /// (module doc); `None` if behind the camera (or its fixed warp saturated).
+    pub fn edge_corner_counted(
+        &self,
+        x: f64,
+        y: f64,
+        inv_z: f64,
+        slopes: [f32; 2],
+        sx: f64,
+        sy: f64,
+    ) -> (Option<DVec2>, u32) {
+        let Some(f) = &self.fixed else { return (self.edge_corner(x, y, inv_z, slopes, sx, sy), 0) };
+        let iz = inv_z + 0.5 * (sx * slopes[0] as f64 + sy * slopes[1] as f64);
+        let Some((nx, ny, _, rw, _)) = fixed_numerator(self, f, x + 0.5 * sx, y + 0.5 * sy, iz) else {
+            return (None, 0);
+        };
+        let (Some(nx), Some(ny), Some(rw)) = (nx, ny, rw) else { return (None, 1) };
+        let (px, a) = f.corner.mul(nx, f.numerator, rw, f.reciprocal);
+        let (py, b) = f.corner.mul(ny, f.numerator, rw, f.reciprocal);
+        (Some(DVec2::new(px, py)), a as u32 + b as u32)
     }
 
     /// [`WarpContext::transform`] of the samples `(x0 + k, y)` with 1/Z
@@ -326,6 +404,47 @@ impl WarpContext {
         let v_own = to_centre(p, self.centres[self.this]);
         View { n, p, dot_own: dot(n, v_own), len_own: dot(v_own, v_own), none }
     }
+}
+
+/// The fixed mode's numerator of the warp of `(x, y)` with 1/Z `inv_z`:
+/// `None` if `W ≤ 0` (behind the camera); else `N.x`, `N.y` (`None` where
+/// saturated), `W`, `1/W` (`None` if `W` or its reciprocal saturated) and `δ`.
+#[allow(clippy::type_complexity)]
+#[inline]
+fn fixed_numerator(
+    c: &WarpContext,
+    f: &FixedFormats,
+    x: f64,
+    y: f64,
+    inv_z: f64,
+) -> Option<(Option<f64>, Option<f64>, f64, Option<f64>, f64)> {
+    let s = &c.setup;
+    let delta = s.s1 * inv_z;
+    let [n0, n1, n2] = numerator_of(s, x, y, delta);
+    let (w, ws) = f.denominator.quantise(n2);
+    if w <= 0.0 {
+        return None;
+    }
+    let (nx, a) = f.numerator.quantise(n0);
+    let (ny, b) = f.numerator.quantise(n1);
+    let (rw, d) = f.reciprocal_of(w);
+    Some(((!a).then_some(nx), (!b).then_some(ny), w, (!(ws | d)).then_some(rw), delta))
+}
+
+/// The fixed mode's warp of one sample (module doc).
+#[inline]
+fn fixed_transform(c: &WarpContext, f: &FixedFormats, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+    let (Some(nx), Some(ny), w, Some(rw), delta) = fixed_numerator(c, f, x, y, inv_z)? else { return None };
+    let mut sat = 0;
+    let (px, a) = f.position.mul(nx, f.numerator, rw, f.reciprocal);
+    let (py, b) = f.position.mul(ny, f.numerator, rw, f.reciprocal);
+    sat += a as u32 + b as u32;
+    let iz = f.inv_z.q(delta / c.setup.s2 * rw, &mut sat);
+    let (ks, kd) = (&c.src.intrinsics, &c.dst.intrinsics);
+    let r1 = ray_len_sq(x - ks.cx, y - ks.cy, c.inv_f_src);
+    let r2 = ray_len_sq(px - kd.cx, py - kd.cy, c.inv_f_dst);
+    let e = f.slope.q((r1 / (r2 * w * w)).sqrt() * c.focal_ratio, &mut sat);
+    Some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e, sat })
 }
 
 /// A sample's view terms for rule 4 ([`WarpContext::view_of`]).
@@ -540,7 +659,7 @@ mod tests {
             let r1 = ray_len_sq(x - ks.cx, y - ks.cy, c.inv_f_src);
             let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, c.inv_f_dst);
             let e = (r1 / (r2 * w.w * w.w)).sqrt() * c.focal_ratio;
-            Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+            Some(Transformed { pos: w.position, inv_z: w.inv_z, e, sat: 0 })
         }
 
         pub fn dest_slopes(c: &WarpContext, x: f64, y: f64, inv_z: f64, slopes: [f32; 2]) -> [f64; 2] {

@@ -7,7 +7,7 @@ use super::composite::{Candidate, Kind, Outcome, composite_with};
 use super::config::{GoldenConfig, WarpOrder};
 use super::cull;
 use super::frame::{GoldenStats, KERNEL_HIST_MAX, PreparedReference, count_outcomes, forward_edge_neighbour};
-use super::kernel_setup::{GroupState, bounding_box, corners};
+use super::kernel_setup::{GroupState, bounding_box, corners_counted};
 use super::planes::DestPlanes;
 use super::raster::{CEIL_I32_RANGE, ceil_i32, rect, rect_of_ranges};
 use super::transform::{BATCH, SampleBatch, Transformed, WarpContext};
@@ -81,6 +81,8 @@ struct WarpedRow {
     inv_z: Vec<f64>,
     e: Vec<f64>,
     ok: Vec<bool>,
+    /// Fixed mode: the warp's saturations (0 in float mode).
+    sat: Vec<u32>,
 }
 
 impl WarpedRow {
@@ -89,12 +91,18 @@ impl WarpedRow {
             v.resize(n, 0.0);
         }
         self.ok.resize(n, false);
+        self.sat.resize(n, 0);
     }
 
     /// Column `k`'s warp, `None` if not `ok`.
     #[inline(always)]
     fn at(&self, k: usize) -> Option<Transformed> {
-        self.ok[k].then(|| Transformed { pos: DVec2::new(self.px[k], self.py[k]), inv_z: self.inv_z[k], e: self.e[k] })
+        self.ok[k].then(|| Transformed {
+            pos: DVec2::new(self.px[k], self.py[k]),
+            inv_z: self.inv_z[k],
+            e: self.e[k],
+            sat: self.sat[k],
+        })
     }
 }
 
@@ -110,10 +118,13 @@ struct GroupRow {
     fast: Vec<bool>,
     ceil_x: Vec<i32>,
     ceil_y: Vec<i32>,
+    /// Fixed mode: the shared corner saturated `q_corner`.
+    csat: Vec<bool>,
 }
 
 impl GroupRow {
     fn resize(&mut self, n: usize) {
+        self.csat.resize(n, false);
         self.state.resize(n, GroupState::Missing);
         self.cx.resize(n, 0.0);
         self.cy.resize(n, 0.0);
@@ -186,12 +197,15 @@ pub(super) fn warp_reference(
     if q.y0 < q.y1 {
         transform_row(ctx, prepared, &q, q.y0 + 1, &mut rows.warped[1], st);
     }
-    let phase_a = PhaseA { ctx, img, cfg, q, live: &live, size: (d.width, d.height) };
+    let phase_a = PhaseA { ctx, img, inv_z: &prepared.inv_z, cfg, q, live: &live, size: (d.width, d.height) };
     for y in q.y0..=q.y1 {
         let r = (y - q.y0) as usize;
         if y < q.y1 {
             let [a, b] = [&rows.warped[r % 3], &rows.warped[(r + 1) % 3]];
             group_row(a, b, cfg.threshold, &mut rows.groups[r % 2]);
+            if let Some(f) = ctx.fixed() {
+                fix_group_row(f.corner, &mut rows.groups[r % 2]);
+            }
         } else {
             rows.groups[r % 2].state.fill(GroupState::Missing);
             rows.groups[r % 2].fast.fill(false);
@@ -228,6 +242,16 @@ pub(super) fn warp_reference(
             batch.sy[k] = img.inv_z_slopes[i][1] as f64;
         }
         ctx.dest_slopes_batch(&batch, &mut slopes[..n]);
+        if let Some(f) = ctx.fixed() {
+            // Fixed mode: the derived slopes in `q_slope` (the raster's).
+            let mut sat = 0;
+            for s in &mut slopes[..n] {
+                *s = s.map(|v| f.slope.q(v, &mut sat));
+            }
+            if let Some(s) = &mut st.saturations {
+                s.raster += sat as u64;
+            }
+        }
         for (kern, s) in chunk.iter_mut().zip(&slopes) {
             kern.slopes = [s[0] as f32, s[1] as f32];
         }
@@ -349,13 +373,24 @@ fn transform_row(
         let m = (n - c).min(BATCH);
         let i = i0 + c;
         // A batch at a time (the transform's loop vectorises).
-        ctx.transform_batch(
-            (q.x0 as usize + c) as f64,
-            y as f64,
-            &prepared.inv_z[i..i + m],
-            &mut batch[..m],
-            &mut ok[..m],
-        );
+        if ctx.fixed().is_some() {
+            ctx.transform_batch_fixed(
+                (q.x0 as usize + c) as f64,
+                y as f64,
+                &prepared.inv_z[i..i + m],
+                &mut batch[..m],
+                &mut ok[..m],
+                &mut out.sat[c..c + m],
+            );
+        } else {
+            ctx.transform_batch(
+                (q.x0 as usize + c) as f64,
+                y as f64,
+                &prepared.inv_z[i..i + m],
+                &mut batch[..m],
+                &mut ok[..m],
+            );
+        }
         let valid = &img.valid[i..i + m];
         for k in 0..m {
             let [px, py, inv_z, e] = batch[k];
@@ -424,10 +459,28 @@ fn group_row(a: &WarpedRow, b: &WarpedRow, threshold: f64, out: &mut GroupRow) {
     out.fast[m] = false;
 }
 
+/// The fixed mode's shared corners of a group row (`group_row` computed
+/// them in FP64): each rounded to `corner`, saturating (`csat`), and the
+/// fast path's ceilings of the rounded corner.
+fn fix_group_row(corner: postwarp_rtl::qformat::QFormat, g: &mut GroupRow) {
+    for k in 0..g.state.len() {
+        g.csat[k] = false;
+        if g.state[k] != GroupState::Shared {
+            continue;
+        }
+        let ((x, sx), (y, sy)) = (corner.quantise(g.cx[k]), corner.quantise(g.cy[k]));
+        (g.cx[k], g.cy[k], g.csat[k]) = (x, y, sx | sy);
+        g.fast[k] = (x.abs() < CEIL_I32_RANGE) & (y.abs() < CEIL_I32_RANGE);
+        (g.ceil_x[k], g.ceil_y[k]) = (ceil_i32(x), ceil_i32(y));
+    }
+}
+
 /// Phase A's fixed inputs for one reference.
 struct PhaseA<'a> {
     ctx: &'a WarpContext,
     img: &'a SampleImage,
+    /// The reference's 1/Z plane (rounded in fixed mode).
+    inv_z: &'a [f64],
     cfg: &'a GoldenConfig,
     q: Region,
     live: &'a cull::LiveBlocks,
@@ -477,17 +530,22 @@ impl PhaseA<'_> {
                 // the corners (ceil is monotone), computed once per group.
                 let shared =
                     inner_y && x >= 1 && x + 1 < w && { gp.fast[kx - 1] & gp.fast[kx] & gc.fast[kx - 1] & gc.fast[kx] };
-                let (rc, edges) = if shared {
+                let (rc, edges, sat) = if shared {
                     let span = |a: i32, b: i32, c: i32, d: i32| {
                         (a.min(b).min(c.min(d)) as i64, a.max(b).max(c.max(d)) as i64 - 1)
                     };
                     let rx = span(gp.ceil_x[kx - 1], gp.ceil_x[kx], gc.ceil_x[kx - 1], gc.ceil_x[kx]);
                     let ry = span(gp.ceil_y[kx - 1], gp.ceil_y[kx], gc.ceil_y[kx - 1], gc.ceil_y[kx]);
-                    (rect_of_ranges(rx, ry, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size), 0)
+                    let ks = gp.csat[kx - 1] as u32 + gp.csat[kx] as u32 + gc.csat[kx - 1] as u32 + gc.csat[kx] as u32;
+                    let rc = rect_of_ranges(rx, ry, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size);
+                    (rc, 0, [t.sat, ks])
                 } else {
-                    let (c, edges) = corners(ctx, img, &t, group_at, x, y);
+                    let group_sat = |gx: u32, gy: u32| rows.groups[(gy - q.y0) as usize % 2].csat[(gx - q.x0) as usize];
+                    let i = img.index(x, y);
+                    let (c, edges, sat) = corners_counted(ctx, img, self.inv_z[i], &t, group_at, group_sat, x, y);
                     let (x0, x1, y0, y1) = bounding_box(&c);
-                    (rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size), edges)
+                    let rc = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size);
+                    (rc, edges, [t.sat + sat[0], sat[1]])
                 };
                 if rc.x.0 > rc.x.1 || rc.y.0 > rc.y.1 {
                     continue;
@@ -496,6 +554,10 @@ impl PhaseA<'_> {
                 hist[kw.min(KERNEL_HIST_MAX)][kh.min(KERNEL_HIST_MAX)] += 1;
                 st.kernels_over_limit += rc.over_limit as u64;
                 st.edge_corners += edges as u64;
+                if let Some(s) = &mut st.saturations {
+                    s.transform += sat[0] as u64;
+                    s.kernel_setup += sat[1] as u64;
+                }
                 let mut fill = [0, 0];
                 if !shared {
                     if x + 1 < w && y + 1 < h {

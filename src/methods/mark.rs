@@ -192,6 +192,7 @@ impl HoleFill for Epipolar {
             far_distance: g.hole_far_distance,
             far_offset: g.hole_far_offset,
             max_distance: g.hole_max_distance,
+            fixed: None,
         };
         let (mut filled, mut unreached) = (0u64, 0u64);
         for warp in &input.cmd.warps {

@@ -197,6 +197,18 @@ impl FallbackStage {
         })
     }
 
+    /// The pass in the fixed mode of the hole-fill unit
+    /// ([`HoleFillUnit::with_fixed`]).
+    pub fn with_fixed(mut self, fixed: Option<(crate::qformat::QFormat, crate::qformat::QFormat)>) -> FallbackStage {
+        self.unit = self.unit.with_fixed(fixed);
+        self
+    }
+
+    /// Fixed mode: values the pass saturated (counts).
+    pub fn saturations(&self) -> u64 {
+        self.unit.counters().saturations
+    }
+
     /// Every sample passed, every tile released and the last one packed.
     pub fn is_done(&self, now: Cycle) -> bool {
         self.line >= self.unit.lines().len() && self.next >= self.releases.len() && now >= self.free_at

@@ -65,9 +65,15 @@
 //!    `units::fallback_fill`): the same rules 2–6 over the reverse of the
 //!    forward order, "visited earlier" meaning a higher forward rank.
 //!
-//! Not modelled: the fixed-point widths of the planes (plane 6 is `f32`,
-//! the accumulation `f64`, the distance 8 bits wide — the golden model's
-//! arithmetic, so that the two agree bit for bit), the divider's latency
+//! 9. Fixed mode (`arith = "fixed"`, `docs/fixed-point.md`): the mean
+//!    rounds to `q_colour`; in rule 6, `1/d` and `Wt + 1/d` round to
+//!    `q_hole_weight`, the quotient to `q_colour` (a zero weight sum takes
+//!    the fill colour itself); saturations are counted
+//!    ([`HoleFillCounters::saturations`]). The planes stay `f32`.
+//!
+//! Not modelled: in float mode the fixed-point widths of the planes (plane
+//! 6 is `f32`, the accumulation `f64`, the distance 8 bits wide — the golden
+//! model's arithmetic, so that the two agree bit for bit), the divider's latency
 //! and pipelining (the unit is a one-sample-per-clock function here),
 //! the boundary line buffer that holds the previous line's taps across a
 //! tile edge, and cache misses (the engine's business).
@@ -81,6 +87,7 @@ use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::dest_frame::DestFrame;
 use crate::mem::MemPort;
+use crate::qformat::QFormat;
 use crate::traversal::{Line, Major, OrderKey, forward_lines, reverse_lines};
 
 /// Knobs of the pass (the golden configuration's `hole_far_distance`,
@@ -120,6 +127,8 @@ pub struct HoleFillCounters {
     pub unreached: u64,
     /// Fills that used the far taps.
     pub far_taps_used: u64,
+    /// Fixed mode: values that saturated (fill colours, weights).
+    pub saturations: u64,
 }
 
 /// The hole-fill unit for one pass (one reference warp): its traversal,
@@ -135,6 +144,8 @@ pub struct HoleFillUnit {
     /// forward order, "visited earlier" = higher forward rank.
     reverse: bool,
     counters: HoleFillCounters,
+    /// Fixed mode: the colour and weight formats (`None`: float).
+    fixed: Option<(QFormat, QFormat)>,
 }
 
 impl HoleFillUnit {
@@ -149,7 +160,15 @@ impl HoleFillUnit {
             order: OrderKey::new(width, height, epipole_derived),
             reverse: false,
             counters: HoleFillCounters::default(),
+            fixed: None,
         }
+    }
+
+    /// The unit in the fixed mode with colour format `colour` and weight
+    /// format `weight` (rule 9; `None`: float).
+    pub fn with_fixed(mut self, fixed: Option<(QFormat, QFormat)>) -> HoleFillUnit {
+        self.fixed = fixed;
+        self
     }
 
     /// The unit in its fallback mode (`units::fallback_fill`): the same
@@ -264,21 +283,41 @@ impl HoleFillUnit {
             }
         }
         let count = n as f64;
-        let c = sum.map(|v| (v / count) as f32);
+        let mut sat = 0;
+        let c = match self.fixed {
+            None => sum.map(|v| (v / count) as f32),
+            Some((col, _)) => sum.map(|v| col.q(v / count, &mut sat) as f32),
+        };
         f.fill_colour[i] = c;
         bits::put(&mut f.fill_valid, i, true);
         f.fill_distance[i] = dist as u8;
         if !bits::get(&f.real, i) {
             // Rule 6: weighted accumulation over references.
             let wt = f.fill_weight[i] as f64;
-            let inv_d = 1.0 / dist as f64;
             let old = if bits::get(&f.hole, i) { f.colour[i] } else { [0.0; 3] };
-            for k in 0..3 {
-                f.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+            match self.fixed {
+                None => {
+                    let inv_d = 1.0 / dist as f64;
+                    for k in 0..3 {
+                        f.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+                    }
+                    f.fill_weight[i] = (wt + inv_d) as f32;
+                }
+                Some((col, wf)) => {
+                    // Rule 9: 1/d and the sum in `q_hole_weight`, the
+                    // colour in `q_colour`; a zero sum takes the fill.
+                    let inv_d = wf.q(1.0 / dist as f64, &mut sat);
+                    let den = wf.q(wt + inv_d, &mut sat);
+                    for k in 0..3 {
+                        let v = if den > 0.0 { (old[k] as f64 * wt + c[k] as f64 * inv_d) / den } else { c[k] as f64 };
+                        f.colour[i][k] = col.q(v, &mut sat) as f32;
+                    }
+                    f.fill_weight[i] = den as f32;
+                }
             }
-            f.fill_weight[i] = (wt + inv_d) as f32;
             bits::put(&mut f.hole, i, true);
         }
+        self.counters.saturations += sat as u64;
         self.counters.filled += 1;
         self.counters.far_taps_used += far_taps as u64;
         FillOutcome::Filled { far_taps }
@@ -459,7 +498,10 @@ mod tests {
         }
         let mut u = HoleFillUnit::new(8, 3, &Epipole { h: DVec3::new(1.0, 0.0, 0.0) }, params());
         u.fill_frame(&mut f);
-        assert_eq!(*u.counters(), HoleFillCounters { visited: 24, filled: 18, unreached: 0, far_taps_used: 0 });
+        assert_eq!(
+            *u.counters(),
+            HoleFillCounters { visited: 24, filled: 18, unreached: 0, far_taps_used: 0, saturations: 0 }
+        );
         for x in 2..8 {
             let i = f.index(x, 1);
             assert!(f.hole[i] && f.fill_valid[i]);

@@ -53,6 +53,7 @@ use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
 use crate::hw_reference::{HwReference, RefSample};
+use crate::qformat::QFormat;
 use crate::traversal::{Line, Major};
 use glam::DVec2;
 
@@ -61,6 +62,9 @@ use glam::DVec2;
 pub enum Group {
     /// Rule 2 holds: shared corner at the mean.
     Shared(DVec2),
+    /// Fixed mode: rule 2 holds, and the mean saturated `q_corner` (the
+    /// corner is the end of its range; counted by each kernel using it).
+    SharedSaturated(DVec2),
     /// A sample is missing (no surface, culled, or off the image).
     Missing,
     /// Some pair fails rule 1.
@@ -91,6 +95,20 @@ pub fn group(
     d: Option<Transformed>,
     threshold: f64,
 ) -> Group {
+    group_in(a, b, c, d, threshold, None)
+}
+
+/// [`group`], with the fixed mode's corner format `corner` (the mean
+/// rounded to it, saturating: [`Group::SharedSaturated`]).
+#[inline]
+pub fn group_in(
+    a: Option<Transformed>,
+    b: Option<Transformed>,
+    c: Option<Transformed>,
+    d: Option<Transformed>,
+    threshold: f64,
+    corner: Option<QFormat>,
+) -> Group {
     let (Some(a), Some(b), Some(c), Some(d)) = (a, b, c, d) else { return Group::Missing };
     let r2 = std::f64::consts::SQRT_2;
     let pairs = [(&a, &b, 1.0), (&c, &d, 1.0), (&a, &c, 1.0), (&b, &d, 1.0), (&a, &d, r2), (&b, &c, r2)];
@@ -101,7 +119,10 @@ pub fn group(
     if (0..4).any(|k| cross(q[(k + 1) % 4] - q[k], q[(k + 2) % 4] - q[(k + 1) % 4]) <= 0.0) {
         return Group::Folded;
     }
-    Group::Shared((a.pos + b.pos + c.pos + d.pos) * 0.25)
+    let mean = (a.pos + b.pos + c.pos + d.pos) * 0.25;
+    let Some(f) = corner else { return Group::Shared(mean) };
+    let ((x, sx), (y, sy)) = (f.quantise(mean.x), f.quantise(mean.y));
+    if sx | sy { Group::SharedSaturated(DVec2::new(x, y)) } else { Group::Shared(DVec2::new(x, y)) }
 }
 
 /// Corners of sample `(x, y)` (warped `t`, 1/Z `inv_z`, reference slopes
@@ -118,18 +139,42 @@ pub fn corners(
     slopes: [f32; 2],
     groups: [Option<Group>; 4],
 ) -> ([DVec2; 4], u32) {
+    let (out, edges, _) = corners_counted(tu, t, x, y, inv_z, slopes, groups);
+    (out, edges)
+}
+
+/// [`corners`], with the fixed mode's saturations: those of the edge
+/// corners' warps (the transform unit's) and the saturated shared
+/// corners used (kernel setup's), `[transform, kernel_setup]`.
+#[inline]
+pub fn corners_counted(
+    tu: &TransformUnit,
+    t: &Transformed,
+    x: u32,
+    y: u32,
+    inv_z: f64,
+    slopes: [f32; 2],
+    groups: [Option<Group>; 4],
+) -> ([DVec2; 4], u32, [u32; 2]) {
     let mut out = [DVec2::ZERO; 4];
     let mut edges = 0;
+    let mut sat = [0; 2];
     for (k, (sx, sy)) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)].into_iter().enumerate() {
         out[k] = match groups[k] {
             Some(Group::Shared(c)) => c,
+            Some(Group::SharedSaturated(c)) => {
+                sat[1] += 1;
+                c
+            }
             _ => {
                 edges += 1;
-                tu.edge_corner(x as f64, y as f64, inv_z, slopes, sx, sy).unwrap_or(t.pos)
+                let (c, n) = tu.edge_corner_counted(x as f64, y as f64, inv_z, slopes, sx, sy);
+                sat[0] += n;
+                c.unwrap_or(t.pos)
             }
         };
     }
-    (out, edges)
+    (out, edges, sat)
 }
 
 /// Rule 4: `(x0, x1, y0, y1)`. The corners are finite (a shared corner
@@ -193,6 +238,10 @@ pub struct Kernel {
     pub src_inv_z: f64,
     /// The reference sample's 1/Z slopes.
     pub src_slopes: [f32; 2],
+    /// Fixed mode: saturations of its transform (own warp and edge
+    /// corners) and of its kernel setup (shared corners), counted by the
+    /// rasterizer if its stamp is not empty (counts).
+    pub sat: [u32; 2],
 }
 
 /// Kernel setup's ports for one cycle.
@@ -385,7 +434,8 @@ impl<'s> KernelSetupStage<'s> {
                 Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
             };
             let rec = self.recs_run[(a - lo) as usize];
-            let (corners, _) = corners(tu, &t, x, y, rec.inv_z(), rec.slopes, groups);
+            let src_inv_z = r.inv_z(&rec);
+            let (corners, _, [ts, ks]) = corners_counted(tu, &t, x, y, src_inv_z, rec.slopes, groups);
             // Rule 5: a forward edge takes its backward neighbour's colour.
             let mut fill_colour = rec.colour;
             if let Some((dx, dy)) = backward_step(epipole, x, y) {
@@ -415,8 +465,9 @@ impl<'s> KernelSetupStage<'s> {
                 corners_box: bounding_box(&corners),
                 colour: rec.colour,
                 fill_colour,
-                src_inv_z: rec.inv_z(),
+                src_inv_z,
                 src_slopes: rec.slopes,
+                sat: [t.sat + ts, ks],
             }));
         }
         self.computed = true;
@@ -440,7 +491,7 @@ mod tests {
     use super::*;
 
     fn w(x: f64, y: f64) -> Option<Transformed> {
-        Some(Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0 })
+        Some(Transformed { pos: DVec2::new(x, y), inv_z: 1.0, e: 1.0, sat: 0 })
     }
 
     #[test]

@@ -33,7 +33,7 @@
 //! of the reference), its write port (the transform's results arrive
 //! through the transform pipeline, which is timed).
 
-use super::kernel_setup::{Group, group};
+use super::kernel_setup::{Group, group_in};
 use super::transform::{TransformStage, TransformUnit, Transformed};
 use crate::hw_reference::HwReference;
 use crate::traversal::Major;
@@ -150,7 +150,7 @@ impl LineBuffer {
             let (x0, y0) = at(major, line, b0);
             let out = &mut row.data[b0 as usize..=b1 as usize];
             self.inv_z_run.clear();
-            self.inv_z_run.extend((b0 as usize..=b1 as usize).map(|a| recs.at(a).inv_z()));
+            self.inv_z_run.extend((b0 as usize..=b1 as usize).map(|a| s.r.inv_z(recs.at(a))));
             let run = &self.inv_z_run;
             s.tu.warp_run((x0 as f64, y0 as f64), step, |k| run[k], out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {
@@ -176,6 +176,7 @@ impl LineBuffer {
             return;
         }
         let wno = self.warp_no;
+        let corner = s.tu.fixed().map(|f| f.corner);
         let (lower, upper) = ((line & 3) as usize, ((line + 1) & 3) as usize);
         let row = &mut self.groups[(line & 3) as usize];
         if reaches_end {
@@ -188,8 +189,8 @@ impl LineBuffer {
                 let (p, q, r, t) = (w(lower, a), w(lower, a + 1), w(upper, a), w(upper, a + 1));
                 // Rule 3: a = (gx, gy), b = (gx + 1, gy), c = (gx, gy + 1), d.
                 let g = match major {
-                    Major::Row => group(p, q, r, t, s.threshold),
-                    Major::Column => group(p, r, q, t, s.threshold),
+                    Major::Row => group_in(p, q, r, t, s.threshold, corner),
+                    Major::Column => group_in(p, r, q, t, s.threshold, corner),
                 };
                 row.data[a as usize] = Some(g);
             }

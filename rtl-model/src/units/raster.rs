@@ -31,6 +31,11 @@
 //!    derived slopes (from the transform unit, on request) and the
 //!    reference number.
 //!
+//! Fixed mode (`docs/fixed-point.md`): the derived slopes round to
+//! `q_slope`; a non-empty stamp counts its kernel's saturations
+//! (`saturations.transform`, `saturations.kernel_setup`) and its slopes'
+//! (`saturations.raster`): drawn kernels are the set both engines agree on.
+//!
 //! Not modelled: the general path's triangle mesh (TR98 §7.1); boxes drawn
 //! larger than the stamp (the hardware cannot).
 
@@ -161,6 +166,9 @@ pub struct RasterStage<'s> {
     lanes: usize,
     over_limit: u64,
     rects: [[u64; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
+    /// Fixed mode: saturations of the non-empty stamps' kernels,
+    /// `[transform, kernel_setup, raster]` (counts).
+    sat: [u64; 3],
     activity: Activity,
 }
 
@@ -184,6 +192,7 @@ impl<'s> RasterStage<'s> {
             lanes: lanes as usize,
             over_limit: 0,
             rects: [[0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
+            sat: [0; 3],
             activity,
         }
     }
@@ -210,7 +219,16 @@ impl<'s> RasterStage<'s> {
             let (cw, ch) = s.drawn();
             self.rects[(cw as usize).min(RECT_HIST_MAX)][(ch as usize).min(RECT_HIST_MAX)] += 1;
             let (x, y) = k.sample;
-            let slopes = self.tu.dest_slopes(x as f64, y as f64, k.src_inv_z, k.src_slopes);
+            let mut slopes = self.tu.dest_slopes(x as f64, y as f64, k.src_inv_z, k.src_slopes);
+            if let Some(f) = self.tu.fixed() {
+                // Fixed mode: the derived slopes in `q_slope`; the stamp's
+                // kernel's saturations count now that it is drawn.
+                let mut n = 0;
+                slopes = slopes.map(|v| f.slope.q(v, &mut n));
+                self.sat[0] += k.sat[0] as u64;
+                self.sat[1] += k.sat[1] as u64;
+                self.sat[2] += n as u64;
+            }
             let cand = Candidate {
                 colour: k.colour,
                 inv_z: k.inv_z as f32,
@@ -248,6 +266,12 @@ impl<'s> RasterStage<'s> {
     pub fn close(&mut self, now: Cycle) -> (UnitCycles, Vec<Run>) {
         self.activity.close(now);
         (self.activity.cycles(), self.activity.take_runs())
+    }
+
+    /// Fixed mode: saturations of the drawn kernels in this warp,
+    /// `[transform, kernel_setup, raster]`.
+    pub fn saturations(&self) -> [u64; 3] {
+        self.sat
     }
 
     /// Kernels over the stamp, and non-empty stamps by drawn size, in this

@@ -39,13 +39,27 @@
 //! (`fifo_full`) in one in which it refused one and accepted none, *idle*
 //! otherwise.
 //!
-//! Not modelled: fixed-point datapaths (FP64 arithmetic, FP32 storage, as
-//! in the golden model, so that the two agree bit for bit).
+//! Fixed mode (`arith = "fixed"`, `docs/fixed-point.md`): the numerator's
+//! sums (per-warp constants times fixed-point inputs, in FP64) round to
+//! `q_numerator` and `q_denominator`, `1/W` comes from the seed table and
+//! Newton–Raphson steps (`qformat` rule 5) in `q_reciprocal`, `x' = N·(1/W)`
+//! is an exact product rounded to `q_position`, `1/Z₂` rounds to `q_inv_z`,
+//! `E` to `q_slope`, edge corners to `q_corner`. A numerator, denominator
+//! or reciprocal that saturates culls the sample like `W ≤ 0` (an edge
+//! corner: the sample's own position, counted); a position, 1/Z, `E` or
+//! corner that saturates takes the end of its range and is counted
+//! ([`Transformed::sat`]).
+//!
+//! Not modelled: fixed-point arithmetic in float mode (FP64 arithmetic,
+//! FP32 storage, as in the golden model, so that the two agree bit for
+//! bit); the fixed mode's derived slopes and better mask are FP64 inside
+//! (their inputs and the slopes' outputs are rounded).
 
 use super::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
 use crate::camera::{Camera, WarpSetup};
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
+use crate::qformat::FixedFormats;
 use glam::{DMat3, DVec2, DVec3};
 
 /// A warped reference sample.
@@ -57,6 +71,9 @@ pub struct Transformed {
     pub inv_z: f64,
     /// Expected spacing `E` (derived samples per reference step).
     pub e: f64,
+    /// Fixed mode: values of this warp that saturated (position, 1/Z, `E`;
+    /// counts, 0 in float mode).
+    pub sat: u32,
 }
 
 /// The transform unit's registers for one reference warp.
@@ -73,6 +90,8 @@ pub struct TransformUnit {
     inv_f_src: (f64, f64),
     inv_f_dst: (f64, f64),
     rot_src: DMat3,
+    /// Fixed mode's formats (`None`: float).
+    fixed: Option<FixedFormats>,
 }
 
 fn geometric_focal(c: &Camera) -> f64 {
@@ -113,6 +132,107 @@ impl TransformUnit {
             inv_f_src: (1.0 / src.intrinsics.fx, 1.0 / src.intrinsics.fy),
             inv_f_dst: (1.0 / dst.intrinsics.fx, 1.0 / dst.intrinsics.fy),
             rot_src: src.pose.rotation(),
+            fixed: None,
+        }
+    }
+
+    /// The unit in the fixed mode of `fixed` (module doc; `None`: float).
+    pub fn with_fixed(mut self, fixed: Option<FixedFormats>) -> Self {
+        self.fixed = fixed;
+        self
+    }
+
+    /// The fixed mode's formats, if any.
+    pub fn fixed(&self) -> Option<&FixedFormats> {
+        self.fixed.as_ref()
+    }
+
+    /// The fixed mode's warp of `(x, y)` with 1/Z `inv_z` (module doc):
+    /// the rounded numerator, denominator and reciprocal (`None` if
+    /// culled: `W ≤ 0` or one of them saturated), then the position.
+    #[inline]
+    fn fixed_numerator(&self, f: &FixedFormats, x: f64, y: f64, inv_z: f64) -> Option<(f64, f64, f64, f64, f64)> {
+        let s = &self.setup;
+        let (h, e) = (&s.h, s.e_hat);
+        let delta = s.s1 * inv_z;
+        let row = |i: usize| h.x_axis[i] * x + h.y_axis[i] * y + h.z_axis[i] * 1.0 + e[i] * delta;
+        let (nx, a) = f.numerator.quantise(row(0));
+        let (ny, b) = f.numerator.quantise(row(1));
+        let (w, c) = f.denominator.quantise(row(2));
+        if a | b | c || w <= 0.0 {
+            return None;
+        }
+        let (rw, d) = f.reciprocal_of(w);
+        (!d).then_some((nx, ny, w, rw, delta))
+    }
+
+    /// The fixed mode's [`TransformUnit::warp`] (module doc).
+    #[inline]
+    fn warp_fixed(&self, f: &FixedFormats, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+        let (nx, ny, w, rw, delta) = self.fixed_numerator(f, x, y, inv_z)?;
+        let mut sat = 0;
+        let (px, a) = f.position.mul(nx, f.numerator, rw, f.reciprocal);
+        let (py, b) = f.position.mul(ny, f.numerator, rw, f.reciprocal);
+        sat += a as u32 + b as u32;
+        let iz = f.inv_z.q(delta / self.setup.s2 * rw, &mut sat);
+        let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
+        let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
+        let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
+        let e = f.slope.q((r1 / (r2 * w * w)).sqrt() * self.focal_ratio, &mut sat);
+        Some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e, sat })
+    }
+
+    /// The fixed mode's edge corner (module doc): the corner, `None` if
+    /// behind the camera or its warp saturated, and the saturations.
+    #[inline]
+    fn edge_corner_fixed(
+        &self,
+        f: &FixedFormats,
+        (x, y, inv_z): (f64, f64, f64),
+        slopes: [f32; 2],
+        sx: f64,
+        sy: f64,
+    ) -> (Option<DVec2>, u32) {
+        let iz = inv_z + 0.5 * (sx * slopes[0] as f64 + sy * slopes[1] as f64);
+        let (cx, cy) = (x + 0.5 * sx, y + 0.5 * sy);
+        let s = &self.setup;
+        let (h, e) = (&s.h, s.e_hat);
+        let delta = s.s1 * iz;
+        let row = |i: usize| h.x_axis[i] * cx + h.y_axis[i] * cy + h.z_axis[i] * 1.0 + e[i] * delta;
+        let (nx, a) = f.numerator.quantise(row(0));
+        let (ny, b) = f.numerator.quantise(row(1));
+        let (w, c) = f.denominator.quantise(row(2));
+        if w <= 0.0 {
+            return (None, 0);
+        }
+        if a | b | c {
+            return (None, 1);
+        }
+        let (rw, d) = f.reciprocal_of(w);
+        if d {
+            return (None, 1);
+        }
+        let (px, a) = f.corner.mul(nx, f.numerator, rw, f.reciprocal);
+        let (py, b) = f.corner.mul(ny, f.numerator, rw, f.reciprocal);
+        (Some(DVec2::new(px, py)), a as u32 + b as u32)
+    }
+
+    /// Exact edge corner `(sx, sy)` (rule 2) in either mode, and the fixed
+    /// mode's saturations; `None` if behind the camera (or, fixed, its
+    /// warp saturated).
+    #[inline]
+    pub fn edge_corner_counted(
+        &self,
+        x: f64,
+        y: f64,
+        inv_z: f64,
+        slopes: [f32; 2],
+        sx: f64,
+        sy: f64,
+    ) -> (Option<DVec2>, u32) {
+        match &self.fixed {
+            None => (self.edge_corner(x, y, inv_z, slopes, sx, sy), 0),
+            Some(f) => self.edge_corner_fixed(f, (x, y, inv_z), slopes, sx, sy),
         }
     }
 
@@ -120,6 +240,9 @@ impl TransformUnit {
     /// derived camera or not finite).
     #[inline]
     pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
+        if let Some(f) = &self.fixed {
+            return self.warp_fixed(f, x, y, inv_z);
+        }
         let w = self.setup.warp(x, y, inv_z);
         if !(w.w > 0.0 && w.position.is_finite() && w.inv_z.is_finite()) {
             return None;
@@ -128,7 +251,7 @@ impl TransformUnit {
         let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
         let r2 = ray_len_sq(w.position.x - kd.cx, w.position.y - kd.cy, self.inv_f_dst);
         let e = (r1 / (r2 * w.w * w.w)).sqrt() * self.focal_ratio;
-        Some(Transformed { pos: w.position, inv_z: w.inv_z, e })
+        Some(Transformed { pos: w.position, inv_z: w.inv_z, e, sat: 0 })
     }
 
     /// [`TransformUnit::warp`] of the run of samples `(x0 + k·dx, y0 +
@@ -145,6 +268,12 @@ impl TransformUnit {
         inv_z: impl Fn(usize) -> f64,
         out: &mut [Option<Transformed>],
     ) {
+        if let Some(f) = &self.fixed {
+            for (k, o) in out.iter_mut().enumerate() {
+                *o = self.warp_fixed(f, x0 + k as f64 * dx, y0 + k as f64 * dy, inv_z(k));
+            }
+            return;
+        }
         let s = &self.setup;
         let (h, e) = (&s.h, s.e_hat);
         let (ks, kd) = (&self.src.intrinsics, &self.dst.intrinsics);
@@ -159,7 +288,7 @@ impl TransformUnit {
             let r1 = ray_len_sq(x - ks.cx, y - ks.cy, self.inv_f_src);
             let r2 = ray_len_sq(px - kd.cx, py - kd.cy, self.inv_f_dst);
             let e = (r1 / (r2 * w * w)).sqrt() * self.focal_ratio;
-            *o = ok.then_some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e });
+            *o = ok.then_some(Transformed { pos: DVec2::new(px, py), inv_z: iz, e, sat: 0 });
         }
     }
 
