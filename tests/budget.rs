@@ -236,3 +236,35 @@ fn simulate_budget_prints_a_configuration_alone() {
         assert!(text.contains(&format!("SRAM total: {want} bytes")), "{name}: {text}");
     }
 }
+
+/// `arith = "fixed"`: the planes at the Q formats' widths (docs/budget.md,
+/// "Widths"), values between units at the widest geometry format, the
+/// quantised datapaths as integer datapaths of the widest format, the
+/// A-buffer packer still FP64.
+#[test]
+fn the_fixed_mode_budget_uses_the_q_formats_widths() {
+    let c = EngineConfig {
+        arith: "fixed".into(),
+        q_colour: "Q1_11".into(),
+        q_inv_z: "Q4_20".into(),
+        q_slope: "Q4_12".into(),
+        q_hole_weight: "Q2_14".into(),
+        ..EngineConfig::default()
+    };
+    c.validate().unwrap();
+    let b = Budget::of(&c);
+    let samples = 1024 * 64;
+    let store = |n: &str| b.stores.iter().find(|s| s.name == n).map(|s| s.bytes).unwrap();
+    assert_eq!(store("dest_cache.plane1_colour"), bytes(samples, 3 * 12));
+    assert_eq!(store("dest_cache.plane2_inv_z"), bytes(samples, 24));
+    assert_eq!(store("dest_cache.plane3_slopes"), bytes(samples, 2 * 16));
+    assert_eq!(store("dest_cache.plane6_fill_colour"), bytes(samples, 3 * 12));
+    assert_eq!(store("dest_cache.plane9_fill_weight"), bytes(samples, 16));
+    // Warps: position 2 x Q16_16, 1/Z Q4_20, E Q4_12 at the widest (32), valid bit.
+    assert_eq!(store("line_buffer.warps"), bytes(4 * default_line(&c), 4 * 32 + 1));
+    let format = |f: &str| b.datapaths.iter().find(|d| d.function.contains(f)).map(|d| d.format.name()).unwrap();
+    assert_eq!(format("warp_run"), "int32", "Q18_14, Q8_24, Q16_16: 32 bits at most");
+    assert_eq!(format("pack_in_place"), "fp64", "the A-buffer stays float");
+    let float = Budget::of(&EngineConfig::default());
+    assert!(b.totals.sram_bytes < float.totals.sram_bytes && b.totals.area_mm2 < float.totals.area_mm2);
+}

@@ -169,3 +169,36 @@ fn bad_formats_are_refused_naming_the_knob() {
     };
     assert!(g.validate().unwrap_err().starts_with("arith = \"fixed\": expected reconstruction = \"aa-rect\""));
 }
+
+/// `postwarp simulate --config configs/fixed.toml`: every frame identical
+/// to the golden model, `saturations` in `report.json` (described with
+/// units), the printed line; and `--budget` prints other widths than float.
+#[test]
+fn the_bundled_fixed_configuration_runs_through_the_cli() {
+    use postwarp::report::keys::undescribed;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("fx");
+    let cfg = root.join("configs/fixed.toml");
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_postwarp")).args(args).output().unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let trace = root.join("traces/occluders");
+    let printed =
+        run(&["simulate", trace.to_str().unwrap(), "--out", out.to_str().unwrap(), "--config", cfg.to_str().unwrap()]);
+    assert!(printed.contains("6 of 6 identical to the golden model"), "{printed}");
+    assert!(printed.contains("saturations over the frames: fetch 0, transform 0"), "{printed}");
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(r["config"]["arith"], "fixed");
+    assert_eq!(r["total"]["saturations"]["hole_fill"], 0);
+    assert!(r["frames"][0]["saturations"]["transform"].is_u64());
+    let mut missing = Vec::new();
+    undescribed(&r, &postwarp::report::simulate::report_keys(), "", &mut missing);
+    assert!(missing.is_empty(), "{missing:?}");
+    let fixed = run(&["simulate", "--config", cfg.to_str().unwrap(), "--budget"]);
+    let float = run(&["simulate", "--preset", "mark1998", "--budget"]);
+    assert_ne!(fixed, float, "the fixed mode's widths differ");
+}

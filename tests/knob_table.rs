@@ -201,7 +201,21 @@ fn the_golden_configuration_of_a_hardware_one_copies_every_shared_knob_and_fixes
             "fallback_fill",
             "hole_far_distance",
             "hole_far_offset",
-            "hole_max_distance"
+            "hole_max_distance",
+            "arith",
+            "q_ref_coord",
+            "q_ref_inv_z",
+            "q_numerator",
+            "q_denominator",
+            "q_reciprocal",
+            "recip_table_bits",
+            "recip_iterations",
+            "q_position",
+            "q_inv_z",
+            "q_slope",
+            "q_corner",
+            "q_colour",
+            "q_hole_weight"
         ]
     );
     for name in &shared {

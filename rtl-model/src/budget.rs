@@ -130,13 +130,22 @@ pub struct Widths {
     pub storage: Format,
     /// Format of the integer datapaths (raster bounds, rank keys).
     pub integer: Format,
+    /// Format of the datapaths the fixed mode leaves in floating point
+    /// (derived slopes and better mask inside, the A-buffer packer and its
+    /// sums): FP64 in both modes.
+    pub float_kept: Format,
 }
 
-/// The widths of `cfg` (rule 1). Today every configuration has the model's
-/// float widths: FP32 storage, FP64 arithmetic.
+/// The widths of `cfg` (rule 1): with `arith = "float"` the model's float
+/// widths (FP32 storage, FP64 arithmetic); with `arith = "fixed"` the Q
+/// formats' (`docs/fixed-point.md`): planes and candidates at `q_colour`,
+/// `q_inv_z`, `q_slope` and `q_hole_weight`, values between units at the
+/// widest of the position, 1/Z, slope and corner formats, the float
+/// datapaths as integer datapaths of the widest format (the reciprocal's
+/// and numerator's included). The A-buffer's unpacker and the reference
+/// depth records stay FP32 (the fixed mode does not change them).
 pub fn widths(cfg: &EngineConfig) -> Widths {
-    let _ = cfg;
-    Widths {
+    let float = Widths {
         colour: 32,
         inv_z: 32,
         slope: 32,
@@ -154,6 +163,31 @@ pub fn widths(cfg: &EngineConfig) -> Widths {
         compute: Format::FP64,
         storage: Format::FP32,
         integer: Format::Int { bits: 64 },
+        float_kept: Format::FP64,
+    };
+    let Ok(Some(f)) = cfg.fixed_formats() else { return float };
+    let wide = [f.position, f.inv_z, f.slope, f.corner, f.ref_inv_z].iter().map(|q| q.bits()).max().unwrap_or(64);
+    let all = [
+        f.ref_coord,
+        f.ref_inv_z,
+        f.numerator,
+        f.denominator,
+        f.reciprocal,
+        f.position,
+        f.inv_z,
+        f.slope,
+        f.corner,
+        f.colour,
+        f.hole_weight,
+    ];
+    Widths {
+        colour: f.colour.bits(),
+        inv_z: f.inv_z.bits(),
+        slope: f.slope.bits(),
+        fill_weight: f.hole_weight.bits(),
+        wide,
+        compute: Format::Int { bits: all.iter().map(|q| q.bits()).max().unwrap_or(64) },
+        ..float
     }
 }
 
@@ -448,7 +482,7 @@ pub fn stamp_bits(w: &Widths) -> u32 {
 /// and its running sums.
 pub fn packer_register_bits(w: &Widths) -> u32 {
     let fragment = 3 * w.colour + w.inv_z + 2 * w.slope + w.mask + w.flag + w.key + w.fill_weight;
-    fragment + 3 * w.wide + w.wide + w.coord
+    fragment + 4 * w.float_kept.bits() + w.coord
 }
 
 fn div_ceil(a: u64, b: u64) -> u64 {
@@ -699,7 +733,7 @@ fn datapaths(c: &EngineConfig, w: &Widths) -> Vec<Datapath> {
             "non-empty stamp",
             rate,
             Ops::new(40, 24, 2, 0, 1),
-            w.compute,
+            w.float_kept,
         ),
         datapath(
             "transform",
@@ -707,7 +741,7 @@ fn datapaths(c: &EngineConfig, w: &Widths) -> Vec<Datapath> {
             "stamp needing rule 3",
             rate,
             better_mask_ops(u64::from(c.references_per_frame)),
-            w.compute,
+            w.float_kept,
         ),
         datapath(
             "kernel_setup",
@@ -756,7 +790,7 @@ fn datapaths(c: &EngineConfig, w: &Widths) -> Vec<Datapath> {
             "pixel packed",
             u64::from(c.packer_pixels_per_cycle),
             packer_ops(ss2, u64::from(c.abuffer_fragments)),
-            w.compute,
+            w.float_kept,
         ),
     ]
 }

@@ -285,6 +285,25 @@ pub struct HwCounters<N> {
     pub fallback: Fallback<N>,
     /// Per unit, busy, stall and idle cycles (cycles).
     pub units: Units<UnitCycles<N>>,
+    /// Fixed mode only (`arith = "fixed"`): values that saturated, per
+    /// stage (counts). Absent in float mode.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturations: Option<SaturationCounts<N>>,
+}
+
+/// The fixed mode's saturations per stage (`FrameStats::saturations`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SaturationCounts<N> {
+    /// Reference expansion (values).
+    pub fetch: N,
+    /// Transform, drawn kernels (values).
+    pub transform: N,
+    /// Kernel setup, drawn kernels' shared corners (values).
+    pub kernel_setup: N,
+    /// Raster, drawn kernels' derived slopes (values).
+    pub raster: N,
+    /// Hole fill and its fallback pass (values).
+    pub hole_fill: N,
 }
 
 /// The hole fill's fallback pass (`units::fallback_fill`).
@@ -404,6 +423,13 @@ impl HwCounters<u64> {
                 tiles_written: s.fallback_tiles_written,
                 unseen_pixels: s.unseen_pixels,
             },
+            saturations: s.saturations.map(|t| SaturationCounts {
+                fetch: t.fetch,
+                transform: t.transform,
+                kernel_setup: t.kernel_setup,
+                raster: t.raster,
+                hole_fill: t.hole_fill,
+            }),
             units: Units {
                 fetch: u("fetch"),
                 transform: u("transform"),
@@ -675,6 +701,32 @@ fn units_keys() -> Vec<KeyDoc> {
     ]
 }
 
+fn saturation_keys() -> Vec<KeyDoc> {
+    vec![
+        scalar(
+            "fetch",
+            "values",
+            Reduce::Sum,
+            "reference colour channels, 1/Z and slopes that saturated, and samples dropped for coordinates beyond \
+             `q_ref_coord`, over every valid sample of each warped reference",
+        ),
+        scalar(
+            "transform",
+            "values",
+            Reduce::Sum,
+            "positions, derived 1/Z, E and edge corners of the drawn kernels that saturated",
+        ),
+        scalar("kernel_setup", "values", Reduce::Sum, "saturated shared corners used by the drawn kernels"),
+        scalar("raster", "values", Reduce::Sum, "derived slopes of the drawn kernels that saturated"),
+        scalar(
+            "hole_fill",
+            "values",
+            Reduce::Sum,
+            "hole-fill colours and weights that saturated, fallback pass included",
+        ),
+    ]
+}
+
 fn fallback_keys() -> Vec<KeyDoc> {
     vec![
         scalar(
@@ -856,6 +908,13 @@ pub fn counter_keys() -> Vec<KeyDoc> {
             Reduce::Sum,
             units_keys,
             "per unit (`engine::UNITS`), `{busy, stall, idle}` cycles (the three sum to `cycles`) and `stall_by_reason`",
+        ),
+        nested(
+            "saturations",
+            Reduce::Sum,
+            saturation_keys,
+            "fixed mode only (`arith = \"fixed\"`, absent in float mode): values that saturated their Q format, per \
+             stage (`docs/fixed-point.md`)",
         ),
     ])
     .collect()

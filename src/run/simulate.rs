@@ -352,6 +352,14 @@ fn summary(r: &SimulateReport, cfg: &EngineConfig, trace: &Trace) -> String {
         d.misses_capacity,
         r.total.counters.tiles_held_to_warp_end.iter().sum::<u64>(),
     );
+    if let Some(sat) = &r.total.counters.saturations {
+        let _ = writeln!(
+            s,
+            "fixed point (arith = \"fixed\", docs/fixed-point.md): saturations over the frames: fetch {}, transform {}, \
+             kernel_setup {}, raster {}, hole_fill {}",
+            sat.fetch, sat.transform, sat.kernel_setup, sat.raster, sat.hole_fill
+        );
+    }
     let b = budget_of(cfg, trace);
     let t = &b.totals;
     let dest: u64 = b
