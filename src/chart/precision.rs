@@ -11,7 +11,8 @@
 //! 2. One chart per trace and precision column that takes more than one
 //!    value among the rows whose every *other* precision column holds its
 //!    most common value there (the generous default; ties: first in the
-//!    CSV). File `precision.<trace>.<column>.svg` / `.png`.
+//!    CSV). File `precision.<trace>.<knob>.svg` / `.png` (the knob's name:
+//!    the column's without its unit, `_q_format`).
 //! 3. Two series: `vs FP64 golden` (`psnr_luma_vs_float_db`; a point whose
 //!    every frame equals the float image, so no finite PSNR, is drawn on
 //!    the top edge as a diamond) and `vs ground truth` (`psnr_luma_db`).
@@ -131,6 +132,8 @@ pub fn precision_charts(t: &ResultsTable) -> Vec<(String, PrecisionChart)> {
         let modes: Vec<Option<&str>> = cols.iter().map(|&c| modal(fixed.iter().map(|r| r.cells[c].as_str()))).collect();
         for (k, &c) in cols.iter().enumerate() {
             let name = &t.header[c];
+            // The knob's name: the column's without its unit (`_q_format`).
+            let knob = name.strip_suffix("_q_format").unwrap_or(name);
             let rows: Vec<&&ResultsRow> = fixed
                 .iter()
                 .filter(|r| {
@@ -140,7 +143,7 @@ pub fn precision_charts(t: &ResultsTable) -> Vec<(String, PrecisionChart)> {
             let mut chart = PrecisionChart {
                 title: String::new(),
                 column: name.clone(),
-                x_label: if name.starts_with("q_") { format!("fraction bits of {name} (bits)") } else { name.clone() },
+                x_label: if name.starts_with("q_") { format!("fraction bits of {knob} (bits)") } else { name.clone() },
                 vs_float: Vec::new(),
                 vs_truth: Vec::new(),
                 labels: Vec::new(),
@@ -176,8 +179,8 @@ pub fn precision_charts(t: &ResultsTable) -> Vec<(String, PrecisionChart)> {
                 float_truth.or_else(|| chart.vs_truth.iter().copied().max_by(|a, b| a.0.total_cmp(&b.0)).map(|p| p.1));
             chart.minimal = reference.and_then(|r| minimal_point(&chart.vs_truth, r, TOLERANCE_DB));
             let spec = rows.first().map_or("", |r| t.cell(r, "spec"));
-            chart.title = format!("{spec}: {tr}, luma PSNR against the bits of {name}");
-            out.push((format!("precision.{}.{}", super::file_label(tr), super::file_label(name)), chart));
+            chart.title = format!("{spec}: {tr}, luma PSNR against the bits of {knob}");
+            out.push((format!("precision.{}.{}", super::file_label(tr), super::file_label(knob)), chart));
         }
     }
     out

@@ -30,7 +30,7 @@
 
 use super::frame_exr::{Planes, write_frame_exr};
 use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
-use crate::metrics::psnr::psnr_rgb;
+use crate::metrics::psnr::{luma, psnr_plane, psnr_rgb};
 use crate::picture::{to_srgb8, write_png};
 use crate::report::SimulateReport;
 use crate::report::dram_trace::DramTraceWriter;
@@ -56,6 +56,10 @@ pub struct SimulateRun {
     pub report: SimulateReport,
     /// The printed summary.
     pub summary: String,
+    /// With `arith = "fixed"`: per frame, luma PSNR of the hardware image
+    /// against the golden model's image of the same configuration with
+    /// `arith = "float"` (dB; +∞ where identical). Empty in float mode.
+    pub vs_float_luma_db: Vec<f64>,
 }
 
 /// Run `trace` on the hardware model configured by `cfg`, writing the
@@ -110,8 +114,18 @@ fn measure(
     }
     let (w, h) = (trace.display.width, trace.display.height);
     let last_use = trace.last_use();
-    let mut refs: HashMap<usize, (HwReference, PreparedReference)> = HashMap::new();
+    // Fixed mode: the FP64 golden model of the same configuration, the
+    // reference the datapath's own error is measured against, with its
+    // own prepared references (fetch rounds them in fixed mode).
+    let float_gcfg = (gcfg.arith == "fixed").then(|| {
+        let mut g = gcfg.clone();
+        g.arith = "float".into();
+        g
+    });
+    let mut refs: HashMap<usize, Refs> = HashMap::new();
     let mut warper = Warper::new();
+    let mut float_warper = Warper::new();
+    let mut vs_float_luma_db = Vec::new();
     let mut frames = Vec::new();
     for (k, f) in trace.derived.iter().enumerate() {
         // The references not yet loaded, loaded and packed in parallel
@@ -119,15 +133,16 @@ fn measure(
         let mut missing: Vec<usize> = f.references.iter().copied().filter(|r| !refs.contains_key(r)).collect();
         missing.sort_unstable();
         missing.dedup();
-        let loaded: Vec<anyhow::Result<(usize, (HwReference, PreparedReference))>> = missing
+        let loaded: Vec<anyhow::Result<(usize, Refs)>> = missing
             .par_iter()
             .map(|&r| {
                 let loaded = trace.load_reference(r)?;
-                let both = rayon::join(
+                let (hw, golden) = rayon::join(
                     || HwReference::new(&loaded.samples, &cfg),
                     || prepare_reference(&loaded.samples, ss, &gcfg),
                 );
-                Ok((r, both))
+                let float = float_gcfg.as_ref().map(|g| prepare_reference(&loaded.samples, ss, g));
+                Ok((r, (hw, golden, float)))
             })
             .collect();
         for l in loaded {
@@ -150,6 +165,12 @@ fn measure(
         let all = BitVec::repeat(true, hw.pixels.len());
         let psnr = psnr_rgb(&pixels8(&hw.pixels), &pixels8(&golden.pixels), &all);
         let identical = differing == 0 && hw.pixels == golden.pixels;
+        if let Some(g) = &float_gcfg {
+            let f_refs: Vec<&PreparedReference> = f.references.iter().filter_map(|r| refs[r].2.as_ref()).collect();
+            let float = float_warper.warp_frame(&cmd, &f_refs, g);
+            let luma = |p: &[[f32; 3]]| -> Vec<f64> { pixels8(p).into_iter().map(luma).collect() };
+            vs_float_luma_db.push(psnr_plane(&luma(&hw.pixels), &luma(&float.pixels), &all));
+        }
         // The golden frame is compared: its planes go before scoring and
         // writing allocate theirs (the process's peak memory).
         drop(golden);
@@ -207,8 +228,12 @@ fn measure(
     if let Some(out) = out {
         crate::report::write(&report, out)?;
     }
-    Ok(SimulateRun { report, summary })
+    Ok(SimulateRun { report, summary, vs_float_luma_db })
 }
+
+/// A loaded reference: the hardware model's, the golden model's, and in
+/// fixed mode the float golden model's.
+type Refs = (HwReference, PreparedReference, Option<PreparedReference>);
 
 /// The budget of `cfg` for the frame and reference sizes of `trace`.
 fn budget_of(cfg: &EngineConfig, trace: &Trace) -> Budget {

@@ -339,7 +339,16 @@ pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow
         }
         PointRun::Hardware { config, .. } => {
             let r = measure_hardware(trace, config, images, &quiet)?;
-            Metrics::from_hardware_report(&r.report)
+            let mut m = Metrics::from_hardware_report(&r.report);
+            if !r.vs_float_luma_db.is_empty() {
+                // Identical frames (+inf) are left out of the mean, as
+                // report.json's means leave them out.
+                let finite: Vec<f64> = r.vs_float_luma_db.iter().copied().filter(|x| x.is_finite()).collect();
+                m.psnr_luma_vs_float_db =
+                    (!finite.is_empty()).then(|| finite.iter().sum::<f64>() / finite.len() as f64);
+                m.vs_float_identical_frames = Some((r.vs_float_luma_db.len() - finite.len()) as u64);
+            }
+            m
         }
     };
     if let Some(s) = staged {
