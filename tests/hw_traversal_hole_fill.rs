@@ -240,7 +240,12 @@ fn compare_pass(d: &mut DestPlanes, f: &mut DestFrame, e: &Epipole, p: HoleFillP
     let st = hole_fill(
         d,
         e,
-        &GoldenParams { far_distance: p.far_distance, far_offset: p.far_offset, max_distance: p.max_distance },
+        &GoldenParams {
+            far_distance: p.far_distance,
+            far_offset: p.far_offset,
+            max_distance: p.max_distance,
+            fixed: None,
+        },
     );
     let mut unit = HoleFillUnit::new(f.width, f.height, e, p);
     unit.fill_frame(f);
@@ -405,7 +410,12 @@ fn hole_fill_unit_matches_golden_on_a_warped_room_frame() {
 /// fallback mode over every sample after `units::fallback_fill`'s
 /// preparation); the planes and counters must agree.
 fn compare_fallback(d: &mut DestPlanes, f: &mut DestFrame, e: &Epipole, p: HoleFillParams, ctx: &str) -> FallbackStats {
-    let gp = GoldenParams { far_distance: p.far_distance, far_offset: p.far_offset, max_distance: p.max_distance };
+    let gp = GoldenParams {
+        far_distance: p.far_distance,
+        far_offset: p.far_offset,
+        max_distance: p.max_distance,
+        fixed: None,
+    };
     let (st, filled) = fallback_fill(d, e, &gp);
     for i in 0..f.len() {
         prepare_sample(f, i);

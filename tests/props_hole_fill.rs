@@ -190,7 +190,7 @@ proptest! {
         let (m_filled, m_unreached) = model(&mut m, &e, &p);
 
         let mut g = before.clone();
-        let gp = GoldenParams { far_distance: p.far_distance, far_offset: p.far_offset, max_distance: p.max_distance };
+        let gp = GoldenParams { far_distance: p.far_distance, far_offset: p.far_offset, max_distance: p.max_distance, fixed: None };
         let st = hole_fill(&mut g, &e, &gp);
         prop_assert_eq!(bits(&g), bits(&m), "golden differs from the visited-only model: {}", ctx);
         prop_assert_eq!((st.filled, st.unreached), (m_filled, m_unreached), "{}", ctx);

@@ -131,7 +131,7 @@ impl QFormat {
     /// `raw · 2^−n`, saturated into the range (rules 3), and whether it
     /// saturated.
     #[inline]
-    fn from_raw_saturating(self, raw: i128) -> (f64, bool) {
+    fn saturate_raw(self, raw: i128) -> (f64, bool) {
         let (lo, hi) = (self.raw_min() as i128, self.raw_max() as i128);
         let sat = raw < lo || raw > hi;
         (raw.clamp(lo, hi) as f64 * self.ulp(), sat)
@@ -169,7 +169,7 @@ impl QFormat {
     pub fn mul(self, a: f64, fa: QFormat, b: f64, fb: QFormat) -> (f64, bool) {
         let p = fa.raw_of(a) as i128 * fb.raw_of(b) as i128;
         let shift = fa.frac_bits as i32 + fb.frac_bits as i32 - self.frac_bits as i32;
-        self.from_raw_saturating(shift_round(p, shift))
+        self.saturate_raw(shift_round(p, shift))
     }
 }
 
@@ -247,7 +247,7 @@ impl Reciprocal {
         }
         // 1/v = y · 2^(n_in − p) / 2^W; in `out`: raw_out = y · 2^(n_in − p + n_out − W).
         let shift = w as i32 + p as i32 - input.frac_bits as i32 - out.frac_bits as i32;
-        out.from_raw_saturating(shift_round(y as i128, shift))
+        out.saturate_raw(shift_round(y as i128, shift))
     }
 }
 

@@ -40,6 +40,7 @@ fn kernel(line: u32, pos: (f64, f64), half: f64) -> Kernel {
         fill_colour: [0.4, 0.5, 0.6],
         src_inv_z: 0.2,
         src_slopes: [0.01, -0.02],
+        sat: [0, 0],
     }
 }
 

@@ -147,7 +147,7 @@ mod tests {
         let e = Epipole { h: DVec3::new(1.0, 0.0, 0.0) };
         let before = d.clone();
         let (st, filled) = fallback_fill(&mut d, &e, &params());
-        assert_eq!(st, FallbackStats { filled: 9, unreached: 0 });
+        assert_eq!(st, FallbackStats { filled: 9, unreached: 0, saturations: 0 });
         assert_eq!(filled.len(), 9);
         for y in 0..3 {
             for x in 0..3 {
@@ -181,7 +181,7 @@ mod tests {
     fn an_empty_frame_stays_empty() {
         let mut d = DestPlanes::new(3, 2);
         let (st, _) = fallback_fill(&mut d, &Epipole { h: DVec3::new(0.0, 1.0, 0.0) }, &params());
-        assert_eq!(st, FallbackStats { filled: 0, unreached: 6 });
+        assert_eq!(st, FallbackStats { filled: 0, unreached: 6, saturations: 0 });
         assert!(d.hole.not_any());
     }
 }

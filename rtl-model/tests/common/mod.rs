@@ -107,7 +107,7 @@ impl Warp {
         let setup = WarpSetup::new(&src, &dst);
         let tu = TransformUnit::new(setup, src, dst, vec![src.pose.position], 0, cfg.better_margin);
         let lines = warp_lines(w, h, &setup.epipole_reference);
-        let sched = Schedule::new((r.width, r.height), &r.depth, &setup, lines, (w, h), cfg.tile_size);
+        let sched = Schedule::new((r.width, r.height), &r.depth, &setup, lines, (w, h), cfg.tile_size, None);
         Warp { cfg, src, dst, r, samples, inv_z, tu, sched }
     }
 
