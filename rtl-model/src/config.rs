@@ -67,6 +67,12 @@
 //! meet 30 Hz there. 1 MiB of on-chip SRAM was large for a 1998 ASIC but
 //! buildable.
 //!
+//! `fixed-minimal`: `mark1998` with `arith = "fixed"` at the narrowest
+//! formats whose luma PSNR against ground truth stays within 0.1 dB of
+//! float on room, slants, hairball and motorcycle at once
+//! (`specs/precision.toml`, `docs/precision.md`): 22.6 destination bytes
+//! per sample instead of 42.4.
+//!
 //! `hmd2026`: a stereo head-mounted display, 2 views of 2000x2000 at 90 Hz,
 //! 2x2 super-samples, two references per view. A 2026 mobile-SoC block at
 //! 1 GHz sharing 128-bit LPDDR5X-8533 (136.5 GB/s peak: 8533 MT/s × 16 B;
@@ -145,7 +151,7 @@ pub const QFORMAT_RANGE: Range =
 
 crate::knob_names! {
     /// Names accepted by [`EngineConfig::preset`].
-    pub PRESETS, PRESETS_UNIT = "mark1998", "hmd2026"
+    pub PRESETS, PRESETS_UNIT = "mark1998", "hmd2026", "fixed-minimal"
 }
 
 const fn int(min: u64, max: u64) -> Range {
@@ -396,6 +402,25 @@ impl EngineConfig {
                 display_width: 2000,
                 display_height: 2000,
                 views: 2,
+                ..EngineConfig::default()
+            }),
+            // mark1998 with the fixed-point datapath at the narrowest
+            // formats within 0.1 dB of float on room, slants, hairball and
+            // motorcycle together (`docs/precision.md`, specs/precision.toml).
+            "fixed-minimal" => Ok(EngineConfig {
+                arith: "fixed".into(),
+                q_ref_coord: "Q16_1".into(),
+                q_ref_inv_z: "Q8_12".into(),
+                q_numerator: "Q18_12".into(),
+                q_denominator: "Q8_12".into(),
+                q_reciprocal: "Q8_16".into(),
+                recip_table_bits: 4,
+                q_position: "Q16_12".into(),
+                q_inv_z: "Q8_8".into(),
+                q_slope: "Q8_12".into(),
+                q_corner: "Q16_12".into(),
+                q_colour: "Q8_8".into(),
+                q_hole_weight: "Q8_2".into(),
                 ..EngineConfig::default()
             }),
             _ => Err(format!("unknown preset `{name}`: expected one of {}", PRESETS.join(", "))),
