@@ -224,7 +224,17 @@ fn measure(
     let mut report = SimulateReport::new(trace.manifest.display().to_string(), &cfg, from_trace, frames);
     report.ignored_layers = trace.layer_kinds().into_iter().map(String::from).collect();
     report.budget = crate::report::budget::to_json(&budget_of(&cfg, trace));
-    let summary = summary(&report, &cfg, trace);
+    let mut summary = summary(&report, &cfg, trace);
+    if !vs_float_luma_db.is_empty() {
+        let finite: Vec<f64> = vs_float_luma_db.iter().copied().filter(|x| x.is_finite()).collect();
+        let mean = finite.iter().sum::<f64>() / finite.len().max(1) as f64;
+        summary += &format!(
+            "fixed-point datapath against the FP64 golden model of the same configuration: {} of {} frames identical{}\n",
+            vs_float_luma_db.len() - finite.len(),
+            vs_float_luma_db.len(),
+            if finite.is_empty() { String::new() } else { format!(", mean luma PSNR of the others {mean:.2} dB") },
+        );
+    }
     if let Some(out) = out {
         crate::report::write(&report, out)?;
     }
