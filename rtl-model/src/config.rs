@@ -513,6 +513,20 @@ mod tests {
             ("packer_pixels_per_cycle", |c| c.packer_pixels_per_cycle = 0),
             ("tile_prefetch_distance", |c| c.tile_prefetch_distance = 70_000),
             ("composite_miss_queue", |c| c.composite_miss_queue = 65),
+            ("arith", |c| c.arith = "double".into()),
+            ("q_ref_coord", |c| c.q_ref_coord = "Q0_0".into()),
+            ("q_ref_inv_z", |c| c.q_ref_inv_z = "Q40_40".into()),
+            ("q_numerator", |c| c.q_numerator = "X16_16".into()),
+            ("q_denominator", |c| c.q_denominator = "Q16".into()),
+            ("q_reciprocal", |c| c.q_reciprocal = String::new()),
+            ("recip_table_bits", |c| c.recip_table_bits = 0),
+            ("recip_iterations", |c| c.recip_iterations = 5),
+            ("q_position", |c| c.q_position = "q16_16".into()),
+            ("q_inv_z", |c| c.q_inv_z = "Q8_-1".into()),
+            ("q_slope", |c| c.q_slope = "Q8_24_1".into()),
+            ("q_corner", |c| c.q_corner = "Q_16".into()),
+            ("q_colour", |c| c.q_colour = "Q64_1".into()),
+            ("q_hole_weight", |c| c.q_hole_weight = "Q0_8".into()),
         ]
     }
 
@@ -521,7 +535,7 @@ mod tests {
         for (knob, break_it) in invalid_cases() {
             let mut c = EngineConfig::default();
             break_it(&mut c);
-            let e = c.validate().unwrap_err();
+            let e = c.validate().expect_err(knob);
             assert!(e.starts_with(&format!("{knob} = ")), "{knob}: {e}");
         }
     }
