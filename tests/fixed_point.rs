@@ -198,6 +198,18 @@ fn the_bundled_fixed_configuration_runs_through_the_cli() {
     let mut missing = Vec::new();
     undescribed(&r, &postwarp::report::simulate::report_keys(), "", &mut missing);
     assert!(missing.is_empty(), "{missing:?}");
+    // The golden model alone reports its own saturations in fixed mode.
+    let gcfg = dir.path().join("golden.toml");
+    std::fs::write(&gcfg, "arith = \"fixed\"\n").unwrap();
+    let gout = dir.path().join("g");
+    run(&["golden", trace.to_str().unwrap(), "--out", gout.to_str().unwrap(), "--config", gcfg.to_str().unwrap()]);
+    let g: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(gout.join("report.json")).unwrap()).unwrap();
+    assert_eq!(g["total"]["saturations"]["fetch"], 0, "{}", g["total"]);
+    assert!(g["frames"][0]["saturations"]["raster"].is_u64());
+    let mut missing = Vec::new();
+    undescribed(&g, &postwarp::report::golden::report_keys(), "", &mut missing);
+    assert!(missing.is_empty(), "{missing:?}");
     let fixed = run(&["simulate", "--config", cfg.to_str().unwrap(), "--budget"]);
     let float = run(&["simulate", "--preset", "mark1998", "--budget"]);
     assert_ne!(fixed, float, "the fixed mode's widths differ");

@@ -122,6 +122,7 @@ pub struct GoldenStats {
     pub forced_merges: u64,
     /// Fixed mode only (`None` in float mode): values that saturated their
     /// Q format, per stage, over the same sets as the hardware model's.
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub saturations: Option<SaturationCounts>,
 }
 

@@ -69,6 +69,10 @@ pub struct GoldenCounters<N> {
     pub fragments_per_pixel: Vec<N>,
     /// A-buffer merges forced by the fragment limit (merges).
     pub forced_merges: N,
+    /// Fixed mode only (`arith = "fixed"`): values that saturated, per
+    /// stage (counts). Absent in float mode.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub saturations: Option<super::hardware::SaturationCounts<N>>,
 }
 
 impl GoldenCounters<u64> {
@@ -101,6 +105,13 @@ impl GoldenCounters<u64> {
             empty_samples: s.empty_samples,
             fragments_per_pixel: s.fragments_per_pixel.clone(),
             forced_merges: s.forced_merges,
+            saturations: s.saturations.map(|t| super::hardware::SaturationCounts {
+                fetch: t.fetch,
+                transform: t.transform,
+                kernel_setup: t.kernel_setup,
+                raster: t.raster,
+                hole_fill: t.hole_fill,
+            }),
         }
     }
 }
@@ -182,6 +193,13 @@ pub fn counter_keys() -> Vec<KeyDoc> {
              derived frame",
         ),
         count("forced_merges", "merges", "A-buffer merges forced by the fragment limit"),
+        nested(
+            "saturations",
+            Reduce::Sum,
+            super::hardware::saturation_keys,
+            "fixed mode only (`arith = \"fixed\"`, absent in float mode): values that saturated their Q format, per \
+             stage, over the sets the hardware model counts (`docs/fixed-point.md`)",
+        ),
     ]
 }
 
@@ -191,7 +209,8 @@ mod tests {
 
     #[test]
     fn mirrors_the_golden_stats_field_for_field() {
-        let s = GoldenStats::default();
+        // Fixed mode's counts present (absent in float mode, in both).
+        let s = GoldenStats { saturations: Some(Default::default()), ..GoldenStats::default() };
         let engine = serde_json::to_value(&s).unwrap();
         let report = serde_json::to_value(GoldenCounters::of(&s)).unwrap();
         let a: Vec<&String> = engine.as_object().unwrap().keys().collect();

@@ -701,7 +701,8 @@ fn units_keys() -> Vec<KeyDoc> {
     ]
 }
 
-fn saturation_keys() -> Vec<KeyDoc> {
+/// The rows of `saturations` (also the golden report's).
+pub(super) fn saturation_keys() -> Vec<KeyDoc> {
     vec![
         scalar(
             "fetch",
@@ -1021,7 +1022,9 @@ mod tests {
 
     #[test]
     fn every_field_has_a_row() {
-        let c = HwCounters::of(&FrameStats::default(), 32);
+        // Fixed mode's saturations present (absent in float mode).
+        let stats = FrameStats { saturations: Some(Default::default()), ..FrameStats::default() };
+        let c = HwCounters::of(&stats, 32);
         same_keys(&serde_json::to_value(&c).unwrap(), &counter_keys(), "counters");
         let rates = HwRates {
             bytes_per_display_pixel: Some(ByClient::default()),

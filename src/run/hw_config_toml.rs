@@ -138,7 +138,7 @@ mod tests {
             let (name, unit) = (k.name, k.unit);
             let v = match unit {
                 "bool" => toml::Value::Boolean(false),
-                "ideal|dramsim3" | "name|path" | "text" => toml::Value::String("x".into()),
+                "ideal|dramsim3" | "name|path" | "text" | "float|fixed" | "Q format" => toml::Value::String("x".into()),
                 _ => toml::Value::Integer(1),
             };
             set(&mut c, name, &v).unwrap_or_else(|e| panic!("{name}: {e}"));
