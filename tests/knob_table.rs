@@ -124,7 +124,7 @@ fn golden_files_are_read_through_the_table() {
     let c = GoldenConfig::from_toml("threshold = 2\nover_limit = \"allow\"\nwarp_order = \"forward\"\n").unwrap();
     assert_eq!((c.threshold, c.over_limit, c.warp_order), (2.0, OverLimit::Allow, WarpOrder::Forward));
     let e = GoldenConfig::from_toml("treshold = 2").unwrap_err();
-    assert!(e.starts_with("treshold: unknown knob (known: threshold, "), "{e}");
+    assert!(e.starts_with("treshold: unknown knob (known: over_limit, "), "{e}");
     let e = GoldenConfig::from_toml("reconstruction = \"mesh\"").unwrap_err();
     assert_eq!(e, "reconstruction: expected one of \"aa-rect\", \"general\", not \"mesh\"");
     let e = GoldenConfig::from_toml("kernel_limit = 1.5").unwrap_err();
@@ -192,16 +192,16 @@ fn the_golden_configuration_of_a_hardware_one_copies_every_shared_knob_and_fixes
     assert_eq!(
         shared,
         [
-            "threshold",
             "kernel_limit",
+            "abuffer_fragments",
+            "threshold",
             "slope_tol",
             "rel_tol",
             "better_margin",
-            "abuffer_fragments",
-            "fallback_fill",
             "hole_far_distance",
             "hole_far_offset",
             "hole_max_distance",
+            "fallback_fill",
             "arith",
             "q_ref_coord",
             "q_ref_inv_z",
@@ -229,6 +229,14 @@ fn the_golden_configuration_of_a_hardware_one_copies_every_shared_knob_and_fixes
         for other in shared.iter().filter(|o| *o != name) {
             assert_eq!(get_by_name(GOLDEN_KNOBS, &g, other), get_by_name(GOLDEN_KNOBS, &untouched, other), "{other}");
         }
+    }
+    // One declaration (`shared_knobs.rs`): the same unit, description,
+    // range and default in both tables.
+    for name in &shared {
+        let (h, g) = (find(HW_KNOBS, name).unwrap(), find(GOLDEN_KNOBS, name).unwrap());
+        assert_eq!((h.unit, h.description), (g.unit, g.description), "{name}");
+        assert_eq!(format!("{:?}", h.range), format!("{:?}", g.range), "{name}");
+        assert_eq!((h.get)(&EngineConfig::default()), (g.get)(&GoldenConfig::default()), "{name} default");
     }
     let g = golden_config_for(&EngineConfig::default());
     assert_eq!(

@@ -158,11 +158,7 @@ const fn int(min: u64, max: u64) -> Range {
     Range::Int { min, max }
 }
 
-const fn real(min: f64, max: f64) -> Range {
-    Range::Real { min, min_open: false, max }
-}
-
-crate::knob_table! {
+crate::knob_table_with_shared! {
     /// Every knob of the hardware model. Field names are the knob names;
     /// `Default` is the `mark1998` preset.
     #[derive(Clone, Debug, PartialEq)]
@@ -171,10 +167,6 @@ crate::knob_table! {
         supersample: u32 = 2; int(1, 4), "samples",
             "super-samples per pixel along each axis; `postwarp simulate` replaces it by the trace's \
              (`supersample_from_trace`)";
-        abuffer_fragments: u32 = 3; int(0, 16), "fragments/pixel",
-            "A-buffer fragments per pixel in memory (0 = raw samples); called `max_fragments` before \
-             `report_version` 3, a name configuration files may still use";
-        kernel_limit: u32 = 4; int(1, 64), "samples", "largest kernel side the rasterizer draws";
         rects_per_cycle: u32 = 2; int(1, 256), "rectangles/cycle",
             "rectangles the rasterizer (and the compositor) accepts per cycle";
         transform_latency: u32 = 12; int(1, 1024), "cycles", "pipeline depth of the transform unit";
@@ -233,17 +225,6 @@ crate::knob_table! {
         references_per_frame: u32 = 2; int(1, 16), "references",
             "reference frames warped per derived frame; the preset's assumption, not read by the simulation (the \
              trace lists each frame's references)";
-        /// TR98: 1.4 for the plates, 2.3 for the video.
-        threshold: f64 = 1.4; real(0.01, 100.0), "ratio of E",
-            "discontinuity threshold: one surface iff warped distance ≤ threshold × expected spacing";
-        slope_tol: f64 = 2.0; real(0.0, 1000.0), "1",
-            "Z tolerance, slope term: tol = slope_tol × |slopes|₁ + rel_tol × 1/Z";
-        rel_tol: f64 = 0.01; real(0.0, 1.0), "fraction of 1/Z", "Z tolerance, relative term";
-        better_margin: f64 = 0.05; real(0.0, 10.0), "fraction",
-            "another reference is better only if its |cos| of view angle is larger by this fraction";
-        hole_far_distance: u32 = 4; int(1, 63), "samples", "hole-fill distance past which the two far taps join";
-        hole_far_offset: u32 = 4; int(1, 64), "samples", "offset of the far hole-fill taps along the previous line";
-        hole_max_distance: u32 = 63; int(1, 255), "samples", "saturation of the 6-bit hole-fill distance plane";
         hole_fill_per_cycle: u32 = 4; int(1, 256), "samples/cycle",
             "derived samples the hole-fill unit visits per cycle";
         packer_pixels_per_cycle: u32 = 1; int(1, 256), "pixels/cycle",
@@ -254,62 +235,6 @@ crate::knob_table! {
         composite_miss_queue: u32 = 4; int(0, 64), "stamps",
             "stamps that wait in the compositor's miss queue for a tile while later stamps on resident tiles go on \
              (`units/composite.rs` rule 6); 0 = block in order";
-        fallback_fill: bool = true; Range::Bool, "bool",
-            "after the last warp, the hole fill's fallback pass fills the samples no epipolar pass reached \
-             (`units/fallback_fill.rs`)";
-        /// `docs/fixed-point.md`; the `q_*` formats and the reciprocal's
-        /// knobs are read only with `arith = "fixed"`.
-        arith: String = "float".into(); Range::Choice(ARITH_MODES), ARITH_MODES_UNIT,
-            "datapath arithmetic: `float` (FP64 arithmetic, FP32 planes) or `fixed` (values rounded to the `q_*` \
-             formats where each unit produces them, saturating and counted; `docs/fixed-point.md`)";
-        q_ref_coord: String = "Q16_4".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: reference sample coordinates (x ± 1/2, y ± 1/2) at fetch";
-        q_ref_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: reference 1/Z at fetch";
-        q_numerator: String = "Q18_14".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: the transform's warp numerators N.x, N.y";
-        q_denominator: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: the transform's warp denominator W";
-        q_reciprocal: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: 1/W, by seed table and Newton–Raphson steps";
-        recip_table_bits: u32 = 8; int(1, 16), "bits",
-            "fixed mode: index bits of the reciprocal's seed table (2^bits entries)";
-        recip_iterations: u32 = 2; int(0, 4), "iterations", "fixed mode: Newton–Raphson steps after the seed";
-        q_position: String = "Q16_16".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: derived positions (x', y') = N·(1/W)";
-        q_inv_z: String = "Q8_24".into(); QFORMAT_RANGE, "Q format", "fixed mode: derived 1/Z";
-        q_slope: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: slopes of 1/Z (reference at fetch, derived at the raster) and the expected spacing E";
-        q_corner: String = "Q16_16".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: kernel corners (shared means and exact edge corners)";
-        q_colour: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: colour channels (reference at fetch, hole-fill means and accumulations)";
-        q_hole_weight: String = "Q8_24".into(); QFORMAT_RANGE, "Q format",
-            "fixed mode: hole-fill weights 1/d and their sums (plane 9)";
-    }
-}
-
-impl EngineConfig {
-    /// The fixed mode's formats (`None` with `arith = "float"`); errors
-    /// name the knob.
-    pub fn fixed_formats(&self) -> Result<Option<crate::qformat::FixedFormats>, String> {
-        if self.arith != "fixed" {
-            return Ok(None);
-        }
-        let q = [
-            &self.q_ref_coord,
-            &self.q_ref_inv_z,
-            &self.q_numerator,
-            &self.q_denominator,
-            &self.q_reciprocal,
-            &self.q_position,
-            &self.q_inv_z,
-            &self.q_slope,
-            &self.q_corner,
-            &self.q_colour,
-            &self.q_hole_weight,
-        ];
-        crate::qformat::FixedFormats::from_knobs(q.map(|s| s.as_str()), self.recip_table_bits, self.recip_iterations)
-            .map(Some)
     }
 }
 
@@ -543,8 +468,10 @@ mod tests {
     #[test]
     fn every_knob_is_listed_and_has_an_invalid_case() {
         // A bool knob has no invalid value.
-        let listed: Vec<&str> = KNOBS.iter().filter(|k| k.unit != "bool").map(|k| k.name).collect();
-        let tested: Vec<&str> = invalid_cases().iter().map(|k| k.0).collect();
+        let mut listed: Vec<&str> = KNOBS.iter().filter(|k| k.unit != "bool").map(|k| k.name).collect();
+        let mut tested: Vec<&str> = invalid_cases().iter().map(|k| k.0).collect();
+        listed.sort();
+        tested.sort();
         assert_eq!(listed, tested);
         assert!(KNOBS.iter().all(|k| !k.unit.is_empty() && !k.description.is_empty()));
         // Field count check: Debug prints one `name: value` per field.

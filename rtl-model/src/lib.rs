@@ -29,6 +29,7 @@ pub mod mem;
 pub mod qformat;
 pub mod sample_image;
 pub mod schedule;
+pub mod shared_knobs;
 pub mod stats;
 pub mod timeline;
 pub mod traversal;

@@ -185,7 +185,7 @@ mod tests {
         let e = check_golden("threshold", &toml::Value::String("x".into())).unwrap_err();
         assert!(e.starts_with("expected"), "{e}");
         let e = check_golden("threshold", &toml::Value::Float(-1.0)).unwrap_err();
-        assert!(e.contains("positive"), "{e}");
+        assert!(e.contains("expected 0.01 to 100"), "{e}");
         assert!(check_golden("over_limit", &toml::Value::String("allow".into())).is_ok());
         assert!(check_golden("over_limit", &toml::Value::String("sometimes".into())).is_err());
         assert!(golden_key_error("hole_fill").unwrap().contains("hole_fills"));

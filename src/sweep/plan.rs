@@ -235,7 +235,7 @@ dest_cache_bytes = [65536, 131072]
         // hardware: 2 thresholds (warp_order does not apply) x 2 caches.
         assert_eq!((count("mark-aa"), count("forward-splat"), count("hardware")), (8, 1, 4));
         let cols: Vec<&str> = p.knob_columns.iter().map(|c| c.0.as_str()).collect();
-        assert_eq!(cols, ["threshold_ratio_of_e", "warp_order", "dest_cache_bytes"]);
+        assert_eq!(cols, ["warp_order", "threshold_ratio_of_e", "dest_cache_bytes"]);
         let hw = p.points.iter().find(|x| x.run.method() == "hardware").unwrap();
         assert_eq!(knob_cell(&hw.run, "golden", "threshold"), "1.4");
         assert_eq!(knob_cell(&hw.run, "golden", "warp_order"), "");
