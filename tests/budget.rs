@@ -17,9 +17,40 @@ fn bytes(entries: u64, bits: u64) -> u64 {
     (entries * bits).div_ceil(8)
 }
 
+/// Bits of a value in the test's own reading of the knobs (docs/budget.md,
+/// "Widths"): FP32 planes and FP64 values between units in float mode; in
+/// fixed mode a "Qm_n" format is m + n bits, a value between units the
+/// widest of the geometry formats.
+struct Bits {
+    colour: u64,
+    inv_z: u64,
+    slope: u64,
+    weight: u64,
+    wide: u64,
+}
+
+fn bits_of(c: &EngineConfig) -> Bits {
+    if c.arith != "fixed" {
+        return Bits { colour: 32, inv_z: 32, slope: 32, weight: 32, wide: 64 };
+    }
+    let q = |f: &str| -> u64 {
+        let (m, n) = f.trim_start_matches('Q').split_once('_').unwrap();
+        m.parse::<u64>().unwrap() + n.parse::<u64>().unwrap()
+    };
+    let wide = [&c.q_position, &c.q_inv_z, &c.q_slope, &c.q_corner, &c.q_ref_inv_z].map(|f| q(f)).into_iter().max();
+    Bits {
+        colour: q(&c.q_colour),
+        inv_z: q(&c.q_inv_z),
+        slope: q(&c.q_slope),
+        weight: q(&c.q_hole_weight),
+        wide: wide.unwrap(),
+    }
+}
+
 /// Every store's bytes by the documented formulas (docs/budget.md), for a
 /// derived frame of `dw x dh` samples and reference lines of `line` samples.
 fn expected(c: &EngineConfig, (dw, dh): (u64, u64), line: u64) -> Vec<(&'static str, bool, u64)> {
+    let Bits { colour: cb, inv_z: iz, slope: sl, weight: wt, wide } = bits_of(c);
     let tile = c.tile_size as u64;
     let slots = c.dest_cache_bytes / (tile * tile * 16);
     let samples = slots * tile * tile;
@@ -29,41 +60,44 @@ fn expected(c: &EngineConfig, (dw, dh): (u64, u64), line: u64) -> Vec<(&'static 
     let rate = c.rects_per_cycle as u64;
     let packed_tile = (tile / ss).pow(2) * (1 + 16 * f);
     let raw_tile = tile * tile * 16;
-    // Stamp: line 32, rect 4x64 + 2x32 + 1, candidate 3x32 + 32 + 2x32 + 8
-    // + 3x32, sample 2x32, reference 1/Z 64, slopes 2x32, mask 32 + 1, flag 1.
-    let stamp = 32 + (256 + 64 + 1) + (96 + 32 + 64 + 8 + 96) + 64 + 64 + 64 + 33 + 1;
+    // Kernel: line 32, sample 2x32, position 2 wide, 1/Z wide, box 4 wide,
+    // colour and fill colour 3 colour each, reference 1/Z wide, slopes 2.
+    let kernel = 32 + 2 * 32 + 2 * wide + wide + 4 * wide + 6 * cb + wide + 2 * sl;
+    // Stamp: line 32, rect 4x64 + 2x32 + 1, candidate 3 colour + 1/Z + 2
+    // slopes + 8 + 3 colour, sample 2x32, reference 1/Z wide, slopes 2,
+    // mask 32 + 1, flag 1.
+    let stamp = 32 + (256 + 64 + 1) + (6 * cb + iz + 2 * sl + 8) + 64 + wide + 2 * sl + 33 + 1;
+    // Packer: fragment (3 colour, 1/Z, 2 slopes, mask 16, flag, key 32,
+    // weight), 4 FP64 sums (the packer stays float), pixel count 32.
+    let packer = (3 * cb + iz + 2 * sl + 16 + 1 + 32 + wt) + 4 * 64 + 32;
     vec![
         ("source_cache.data", true, c.source_cache_bytes),
-        ("dest_cache.plane1_colour", true, bytes(samples, 96)),
-        ("dest_cache.plane2_inv_z", true, bytes(samples, 32)),
-        ("dest_cache.plane3_slopes", true, bytes(samples, 64)),
+        ("dest_cache.plane1_colour", true, bytes(samples, 3 * cb)),
+        ("dest_cache.plane2_inv_z", true, bytes(samples, iz)),
+        ("dest_cache.plane3_slopes", true, bytes(samples, 2 * sl)),
         ("dest_cache.plane4_source", true, bytes(samples, 8)),
         ("dest_cache.plane5_hole", true, bytes(samples, 1)),
-        ("dest_cache.plane6_fill_colour", true, bytes(samples, 96)),
+        ("dest_cache.plane6_fill_colour", true, bytes(samples, 3 * cb)),
         ("dest_cache.plane7_fill_valid", true, bytes(samples, 1)),
         ("dest_cache.plane8_fill_distance", true, bytes(samples, 8)),
-        ("dest_cache.plane9_fill_weight", true, bytes(samples, 32)),
+        ("dest_cache.plane9_fill_weight", true, bytes(samples, wt)),
         ("dest_cache.real", true, bytes(samples, 1)),
         ("dest_cache.tags", false, bytes(slots, 35)),
-        ("line_buffer.warps", true, bytes(4 * line, 4 * 64 + 1)),
-        ("line_buffer.groups", true, bytes(4 * line, 2 + 128)),
-        ("line_buffer.records", true, bytes(4 * line, 64 + 64 + 96 + 32)),
+        ("line_buffer.warps", true, bytes(4 * line, 4 * wide + 1)),
+        ("line_buffer.groups", true, bytes(4 * line, 2 + 2 * wide)),
+        ("line_buffer.records", true, bytes(4 * line, wide + 2 * sl + 3 * cb + 32)),
         (
             "transform.pipeline",
             false,
-            bytes(c.transform_throughput as u64 * (c.transform_latency as u64 + 1), 64 + 64 + 64 + 64),
+            bytes(c.transform_throughput as u64 * (c.transform_latency as u64 + 1), 4 * 32 + wide + 2 * sl),
         ),
-        ("kernel_fifo", false, bytes(2 * rate, 32 + 64 + 128 + 64 + 256 + 96 + 96 + 64 + 64)),
+        ("kernel_fifo", false, bytes(2 * rate, kernel)),
         ("stamp_fifo", false, bytes(2 * rate, stamp)),
         ("composite.miss_queue", false, bytes(c.composite_miss_queue as u64, stamp + 128 + 3)),
-        ("hole_fill.taps", false, bytes(c.hole_fill_per_cycle as u64 * 5, 96 + 1 + 8 + 64)),
+        ("hole_fill.taps", false, bytes(c.hole_fill_per_cycle as u64 * 5, 3 * cb + 1 + 8 + 64)),
         ("hole_fill.dirty", false, if c.fallback_fill { bytes(frame_tiles, 1) } else { 0 }),
         ("tile_manager.retired", false, bytes(frame_tiles, 1)),
-        (
-            "packer.registers",
-            false,
-            if f == 0 { 0 } else { bytes(c.packer_pixels_per_cycle as u64 * ss * ss, 273 + 192 + 64 + 32) },
-        ),
+        ("packer.registers", false, if f == 0 { 0 } else { bytes(c.packer_pixels_per_cycle as u64 * ss * ss, packer) }),
         ("packer.write_buffer", true, 8 * packed_tile.max(raw_tile)),
     ]
 }
@@ -265,6 +299,13 @@ fn the_fixed_mode_budget_uses_the_q_formats_widths() {
     let format = |f: &str| b.datapaths.iter().find(|d| d.function.contains(f)).map(|d| d.format.name()).unwrap();
     assert_eq!(format("warp_run"), "int32", "Q18_14, Q8_24, Q16_16: 32 bits at most");
     assert_eq!(format("pack_in_place"), "fp64", "the A-buffer stays float");
+    // Every store and the totals, from the test's own widths: these
+    // formats, the bundled `configs/fixed.toml` defaults and `fixed-minimal`.
+    check(&c, &b, (1280, 960), default_line(&c));
+    let defaults = EngineConfig { arith: "fixed".into(), ..EngineConfig::default() };
+    check(&defaults, &Budget::of(&defaults), (1280, 960), default_line(&defaults));
+    let minimal = EngineConfig::preset("fixed-minimal").unwrap();
+    check(&minimal, &Budget::of(&minimal), (1280, 960), default_line(&minimal));
     let float = Budget::of(&EngineConfig::default());
     assert!(b.totals.sram_bytes < float.totals.sram_bytes && b.totals.area_mm2 < float.totals.area_mm2);
 }

@@ -26,7 +26,7 @@ pub struct Args {
     /// Hardware knobs as TOML (keys as in docs/units.md; `preset = "NAME"` picks the base).
     #[arg(long, conflicts_with = "preset")]
     pub config: Option<PathBuf>,
-    /// A named configuration: mark1998 (default) or hmd2026.
+    /// A named configuration: mark1998 (default), hmd2026 or fixed-minimal (`docs/precision.md`).
     #[arg(long)]
     pub preset: Option<String>,
     /// Write the configuration (--config / --preset) to FILE as TOML that

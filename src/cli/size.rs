@@ -29,7 +29,7 @@ pub struct Args {
     /// everything else is replaced, not mixed).
     #[arg(long, requires = "out")]
     pub force: bool,
-    /// Preset of every other knob: mark1998 (default) or hmd2026.
+    /// Preset of every other knob: mark1998 (default), hmd2026 or fixed-minimal (`docs/precision.md`).
     #[arg(long, default_value = "mark1998")]
     pub preset: String,
     /// Use the first N derived frames (frames).
