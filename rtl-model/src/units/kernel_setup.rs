@@ -100,7 +100,7 @@ pub fn group(
 
 /// [`group`], with the fixed mode's corner format `corner` (the mean
 /// rounded to it, saturating: [`Group::SharedSaturated`]).
-#[inline]
+#[inline(always)]
 pub fn group_in(
     a: Option<Transformed>,
     b: Option<Transformed>,
@@ -146,7 +146,7 @@ pub fn corners(
 /// [`corners`], with the fixed mode's saturations: those of the edge
 /// corners' warps (the transform unit's) and the saturated shared
 /// corners used (kernel setup's), `[transform, kernel_setup]`.
-#[inline]
+#[inline(always)]
 pub fn corners_counted(
     tu: &TransformUnit,
     t: &Transformed,

@@ -150,7 +150,7 @@ impl TransformUnit {
     /// The fixed mode's warp of `(x, y)` with 1/Z `inv_z` (module doc):
     /// the rounded numerator, denominator and reciprocal (`None` if
     /// culled: `W ≤ 0` or one of them saturated), then the position.
-    #[inline]
+    #[inline(never)]
     fn fixed_numerator(&self, f: &FixedFormats, x: f64, y: f64, inv_z: f64) -> Option<(f64, f64, f64, f64, f64)> {
         let s = &self.setup;
         let (h, e) = (&s.h, s.e_hat);
@@ -167,7 +167,7 @@ impl TransformUnit {
     }
 
     /// The fixed mode's [`TransformUnit::warp`] (module doc).
-    #[inline]
+    #[inline(never)]
     fn warp_fixed(&self, f: &FixedFormats, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
         let (nx, ny, w, rw, delta) = self.fixed_numerator(f, x, y, inv_z)?;
         let mut sat = 0;
@@ -184,7 +184,7 @@ impl TransformUnit {
 
     /// The fixed mode's edge corner (module doc): the corner, `None` if
     /// behind the camera or its warp saturated, and the saturations.
-    #[inline]
+    #[inline(never)]
     fn edge_corner_fixed(
         &self,
         f: &FixedFormats,
@@ -220,7 +220,7 @@ impl TransformUnit {
     /// Exact edge corner `(sx, sy)` (rule 2) in either mode, and the fixed
     /// mode's saturations; `None` if behind the camera (or, fixed, its
     /// warp saturated).
-    #[inline]
+    #[inline(always)]
     pub fn edge_corner_counted(
         &self,
         x: f64,
@@ -238,7 +238,7 @@ impl TransformUnit {
 
     /// Warp sample `(x, y)` with 1/Z `inv_z`; `None` if culled (behind the
     /// derived camera or not finite).
-    #[inline]
+    #[inline(always)]
     pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Option<Transformed> {
         if let Some(f) = &self.fixed {
             return self.warp_fixed(f, x, y, inv_z);
