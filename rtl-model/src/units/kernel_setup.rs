@@ -156,24 +156,24 @@ pub fn corners_counted(
     slopes: [f32; 2],
     groups: [Option<Group>; 4],
 ) -> ([DVec2; 4], u32, [u32; 2]) {
-    let mut out = [DVec2::ZERO; 4];
     let mut edges = 0;
     let mut sat = [0; 2];
-    for (k, (sx, sy)) in [(-1.0, -1.0), (1.0, -1.0), (-1.0, 1.0), (1.0, 1.0)].into_iter().enumerate() {
-        out[k] = match groups[k] {
-            Some(Group::Shared(c)) => c,
-            Some(Group::SharedSaturated(c)) => {
-                sat[1] += 1;
-                c
-            }
-            _ => {
-                edges += 1;
-                let (c, n) = tu.edge_corner_counted(x as f64, y as f64, inv_z, slopes, sx, sy);
-                sat[0] += n;
-                c.unwrap_or(t.pos)
-            }
-        };
-    }
+    // Each corner built whole (not written into an array field by field:
+    // the host's store forwarding stalled on reading such an array back).
+    let mut corner = |k: usize, sx: f64, sy: f64| match groups[k] {
+        Some(Group::Shared(c)) => c,
+        Some(Group::SharedSaturated(c)) => {
+            sat[1] += 1;
+            c
+        }
+        _ => {
+            edges += 1;
+            let (c, n) = tu.edge_corner_counted(x as f64, y as f64, inv_z, slopes, sx, sy);
+            sat[0] += n;
+            c.unwrap_or(t.pos)
+        }
+    };
+    let out = [corner(0, -1.0, -1.0), corner(1, 1.0, -1.0), corner(2, -1.0, 1.0), corner(3, 1.0, 1.0)];
     (out, edges, sat)
 }
 
