@@ -11,8 +11,7 @@ use postwarp::golden::planes::DestPlanes;
 use postwarp::golden::transform::WarpContext;
 use postwarp_rtl::{Camera, FrameCommands, Pose, SampleImage};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// A bounded plane: `centre + a·u + b·v`, `|a| <= hu`, `|b| <= hv`.
 #[derive(Clone, Copy)]

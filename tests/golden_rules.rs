@@ -6,8 +6,7 @@ use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{prepare_reference, warp_frame};
 use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 fn blue_to_green(x: f64) -> [f32; 3] {
     let t = (x * 0.5 + 0.5).clamp(0.0, 1.0) as f32;

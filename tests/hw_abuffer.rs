@@ -16,7 +16,7 @@ use postwarp_rtl::units::abuffer::{
 use postwarp_rtl::{DestFrame, SampleImage};
 use std::path::PathBuf;
 
-mod common;
+use crate::common;
 
 const TRACES: [&str; 5] = ["room", "slants", "hairball", "occluders", "motorcycle"];
 

@@ -11,9 +11,7 @@
 //! spills and reloads tiles; wide lanes); the pass's cycles and bytes are
 //! counted, and the engine's idle skipping stays exact through it.
 
-mod common;
-
-use common::{Layer, at_x, render};
+use crate::common::{Layer, at_x, render};
 use postwarp::golden::frame::{GoldenFrame, prepare_reference, warp_frame};
 use postwarp::run::hw_config::golden_config_for;
 use postwarp_rtl::config::EngineConfig;

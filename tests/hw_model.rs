@@ -2,7 +2,7 @@
 //! working set, DRAM bytes against what the packer wrote, cycle bounds, and
 //! unit latency seen end to end.
 
-mod common;
+use crate::common;
 
 use postwarp::trace::Trace;
 use postwarp_rtl::config::{CACHE_BYTES_PER_SAMPLE, EngineConfig};

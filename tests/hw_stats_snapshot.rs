@@ -38,7 +38,8 @@ fn snapshot(trace: &str, config_name: &str, cfg: &EngineConfig) -> String {
     let mut engine = Engine::new(cfg.clone()).unwrap();
     let mut s = String::new();
     let _ = writeln!(s, "# hardware-model counters: traces/{trace}, configuration `{config_name}`");
-    let _ = writeln!(s, "# rewrite after an intended change: UPDATE_STATS=1 cargo test --test hw_stats_snapshot");
+    let _ =
+        writeln!(s, "# rewrite after an intended change: UPDATE_STATS=1 cargo test --test suite hw_stats_snapshot::");
     let mut refs: HashMap<usize, HwReference> = HashMap::new();
     for k in 0..t.derived.len() {
         for &r in &t.derived[k].references {

@@ -12,7 +12,7 @@ use postwarp::tracegen::{TraceSpec, make_trace};
 use postwarp_rtl::config::EngineConfig;
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 
 /// Render `scene` at `w`x`h`, `ss`x`ss` samples, two derived frames, and
 /// return how many of them the hardware model reproduces bit for bit.

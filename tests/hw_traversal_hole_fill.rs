@@ -19,8 +19,8 @@ use postwarp_rtl::units::fallback_fill::prepare_sample;
 use postwarp_rtl::units::hole_fill::{HoleFillCounters, HoleFillParams, HoleFillUnit};
 use proptest::prelude::*;
 
-mod common;
-use common::props::{epipole_strategy, finite};
+use crate::common;
+use crate::common::props::{epipole_strategy, finite};
 
 // ---------------------------------------------------------------- traversal
 

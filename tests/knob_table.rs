@@ -4,7 +4,7 @@
 //! with a message naming the knob, every knob set by name reads back by
 //! name, through TOML and JSON too, the golden choices' command-line names
 //! are the table's, and the docs' knob tables are the generated ones
-//! (`UPDATE_DOCS=1 cargo test --test knob_table` rewrites them).
+//! (`UPDATE_DOCS=1 cargo test --test suite knob_table::` rewrites them).
 
 use postwarp::golden::config::{GoldenConfig, KNOBS as GOLDEN_KNOBS, OverLimit, Reconstruction, WarpOrder};
 use postwarp::knobs::docs;
@@ -167,7 +167,7 @@ fn check_page(file: &str, hardware: bool) {
     }
     assert!(
         page == want,
-        "{file}'s knob table differs from the knob table; run UPDATE_DOCS=1 cargo test --test knob_table"
+        "{file}'s knob table differs from the knob table; run UPDATE_DOCS=1 cargo test --test suite knob_table::"
     );
 }
 

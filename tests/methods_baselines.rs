@@ -18,9 +18,9 @@ use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::{FrameCommands, SampleImage};
 use proptest::prelude::*;
 
-mod common;
-use common::props::epipole_strategy;
-use common::{Layer, at_x, prop_config, render as cast};
+use crate::common;
+use crate::common::props::epipole_strategy;
+use crate::common::{Layer, at_x, prop_config, render as cast};
 
 /// Frame commands for a `w x h`-sample derived frame at ss = 1 with one
 /// warp whose derived-image epipole is `e` (the cameras do not matter to a

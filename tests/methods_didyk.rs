@@ -13,8 +13,7 @@ use postwarp::methods::didyk::{Didyk, DidykParams, TextureFilter, VertexDepths, 
 use postwarp::methods::{Input, MethodFrame, NoFill, Prepared, Reconstruction, render as run_method};
 use postwarp_rtl::{Camera, FrameCommands, Intrinsics, Pose, SampleImage, WarpSetup};
 
-mod common;
-use common::{Layer, camera, grey_stripes, red, render};
+use crate::common::{Layer, camera, grey_stripes, red, render};
 
 /// xorshift64*: a tiny deterministic generator for the random images.
 struct Rng(u64);

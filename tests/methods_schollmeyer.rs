@@ -12,8 +12,8 @@ use postwarp::methods::{self, HoleFill, Input, NoFill, Prepared, Reconstruction}
 use postwarp_rtl::{Camera, FrameCommands, SampleImage};
 use proptest::prelude::*;
 
-mod common;
-use common::*;
+use crate::common;
+use crate::common::*;
 
 /// A sample image whose 1/Z is `inv_z(x, y)` (`None`: no surface).
 fn depth_image(w: u32, h: u32, inv_z: impl Fn(u32, u32) -> Option<f64>) -> SampleImage {

@@ -4,9 +4,9 @@
 //! mesh cover magnified surfaces, the mesh does not bridge a depth step the
 //! warp opens, and holes are labelled occlusion or sampling errors.
 
-mod common;
+use crate::common;
 
-use common::{Layer, at_x, camera, grey_stripes, render};
+use crate::common::{Layer, at_x, camera, grey_stripes, render};
 use glam::{DQuat, DVec3};
 use postwarp::golden::planes::DestPlanes;
 use postwarp::methods::smit::errors::{Label, labels};

@@ -19,7 +19,7 @@
 //! tested is the one it does promise: fragments come out sorted by their
 //! first sample, and the result depends on nothing but the pixel's samples.
 
-mod common;
+use crate::common;
 
 use postwarp::golden::abuffer as golden;
 use postwarp::golden::planes::DestPlanes;

@@ -18,7 +18,7 @@ use postwarp_rtl::DestFrame;
 use postwarp_rtl::units::composite as hc;
 use proptest::prelude::*;
 
-mod common;
+use crate::common;
 
 const SLOPE_TOL: f64 = 2.0;
 const REL_TOL: f64 = 0.01;

@@ -14,7 +14,7 @@
 //! most one request is accepted per cycle and at most `max_outstanding`
 //! are outstanding until `completed` returns them.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use postwarp_rtl::clock::Cycle;

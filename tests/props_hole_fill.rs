@@ -23,8 +23,8 @@ use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::units::hole_fill::{HoleFillParams, HoleFillUnit};
 use proptest::prelude::*;
 
-mod common;
-use common::props::epipole_strategy;
+use crate::common;
+use crate::common::props::epipole_strategy;
 
 /// Sample kinds: 0 real, 1 hole fill from an earlier warp, 2 empty.
 fn frame() -> impl Strategy<Value = DestPlanes> {

@@ -28,7 +28,7 @@ use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage, WarpSetup};
 use proptest::prelude::*;
 use std::collections::BTreeSet;
 
-mod common;
+use crate::common;
 
 /// Reference image side (samples).
 const N: u32 = 20;

@@ -14,7 +14,7 @@ use postwarp_rtl::units::raster::rect;
 use proptest::prelude::*;
 use std::collections::BTreeSet;
 
-mod common;
+use crate::common;
 
 /// A box edge: anywhere, on a sample centre, or half-way between centres.
 fn coord() -> impl Strategy<Value = f64> {

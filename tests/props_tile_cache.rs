@@ -22,7 +22,7 @@
 //! does, so a wrong hit, a wrong victim or a compulsory miss where a
 //! capacity miss was due shows up as lost writes.
 
-mod common;
+use crate::common;
 
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::units::tile_cache::{Lookup, TileCache, TileCacheCounters, TileState};

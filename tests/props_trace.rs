@@ -7,7 +7,7 @@
 //! carry v2 layers on some references (then print as version 2). Case counts:
 //! `common::prop_config` (`PROPTEST_CASES` raises them).
 
-mod common;
+use crate::common;
 
 use glam::{DQuat, DVec3};
 use postwarp::trace::layers::{LayerStatement, MAX_FRAGMENTS, ReferenceLayers, SpecularMaterial};

@@ -20,8 +20,8 @@ use postwarp_rtl::units::transform::TransformUnit;
 use postwarp_rtl::{Camera, Intrinsics, Pose, WarpSetup};
 use proptest::prelude::*;
 
-mod common;
-use common::props::{epipole_strategy, finite};
+use crate::common;
+use crate::common::props::{epipole_strategy, finite};
 
 /// A camera 1 to 10 units from the origin, looking at a point up to 3 units
 /// from it, with any roll, any image size from 8 to 2000 samples, focal

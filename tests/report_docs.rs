@@ -41,7 +41,7 @@ fn the_docs_key_lists_are_the_tables() {
     }
     assert!(
         page == want,
-        "docs/report.md's key lists differ from src/report/; run UPDATE_DOCS=1 cargo test --test report_docs"
+        "docs/report.md's key lists differ from src/report/; run UPDATE_DOCS=1 cargo test --test suite report_docs::"
     );
 }
 

@@ -3,7 +3,7 @@
 //! bundled meshes, the built-in scenes and error messages.
 //!
 //! One `#[ignore]`d helper, `write_scene_previews`, renders the built-in
-//! scenes to `docs/img/scene-<name>.png` (`cargo test --test scene_render --
+//! scenes to `docs/img/scene-<name>.png` (`cargo test --test suite scene_render:: --
 //! --ignored write_scene_previews`).
 
 use glam::{DQuat, DVec3};

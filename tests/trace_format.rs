@@ -8,7 +8,7 @@ use postwarp::trace::{
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage};
 use std::path::Path;
 
-mod common;
+use crate::common;
 
 fn camera(w: u32, h: u32, x: f64, yaw: f64) -> Camera {
     Camera {

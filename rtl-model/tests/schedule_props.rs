@@ -15,9 +15,9 @@
 //! of those contains it; the rasterizer covers the sample centres inside
 //! the box, clipped further (`units::raster`).
 
-mod common;
+use crate::common;
 
-use common::{Warp, config, image};
+use crate::common::{Warp, config, image};
 use glam::DVec3;
 use postwarp_rtl::camera::Epipole;
 use postwarp_rtl::schedule::release_order;

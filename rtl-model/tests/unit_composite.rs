@@ -10,9 +10,7 @@
 //! (stall `tile`); a stamp still in the FIFO's transit leaves it stalled
 //! on `upstream`; a composited kernel is done in the tile manager.
 
-mod common;
-
-use common::{TickLog, Warp, activity, config, plane, stall};
+use crate::common::{TickLog, Warp, activity, config, plane, stall};
 use glam::DVec3;
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;

@@ -17,9 +17,7 @@
 //! so Mark's pass could not reach tile 0; the fallback runs from column 7
 //! to 0, each column in the reverse of the forward order.
 
-mod common;
-
-use common::{TickLog, stall};
+use crate::common::{TickLog, stall};
 use glam::DVec3;
 use postwarp_rtl::Epipole;
 use postwarp_rtl::clock::Cycle;

@@ -12,9 +12,7 @@
 //! every cycle from the first tick that meets an absent block to the first
 //! that does not, skipped cycles included).
 
-mod common;
-
-use common::{TickLog, Warp, activity, config, grid_len, image, plane, stall};
+use crate::common::{TickLog, Warp, activity, config, grid_len, image, plane, stall};
 use glam::DVec3;
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::mem::{Dram, DramConfig, MemPort, Tag};

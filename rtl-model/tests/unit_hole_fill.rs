@@ -15,9 +15,7 @@
 //! epipole at infinity along +x, so the pass visits column by column from
 //! x = 0, each top to bottom, and a hole's taps are in the column before.
 
-mod common;
-
-use common::{TickLog, activity, stall};
+use crate::common::{TickLog, activity, stall};
 use glam::DVec3;
 use postwarp_rtl::Epipole;
 use postwarp_rtl::clock::Cycle;

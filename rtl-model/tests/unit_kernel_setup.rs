@@ -13,9 +13,7 @@
 //! emitted anything. Each kernel counts against its line in the tile
 //! manager.
 
-mod common;
-
-use common::{TickLog, Warp, activity, config, grid_len, image, plane, stall, streamed};
+use crate::common::{TickLog, Warp, activity, config, grid_len, image, plane, stall, streamed};
 use glam::DVec3;
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::fifo::Fifo;

@@ -12,9 +12,7 @@
 //! look-up never counted (rule 2); waiting for the hole fill is idle, or
 //! busy finishing the previous tile (rule 3).
 
-mod common;
-
-use common::{TickLog, activity, config, stall};
+use crate::common::{TickLog, activity, config, stall};
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;
 use postwarp_rtl::dest_frame::DestFrame;

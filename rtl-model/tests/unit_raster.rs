@@ -11,9 +11,7 @@
 //! and stamp FIFOs' latency of 1 puts a kernel pushed at P in the stamp
 //! FIFO at P + 1 and in front of the compositor at P + 2.
 
-mod common;
-
-use common::{TickLog, Warp, activity, config, plane, stall};
+use crate::common::{TickLog, Warp, activity, config, plane, stall};
 use glam::{DVec2, DVec3};
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::fifo::Fifo;

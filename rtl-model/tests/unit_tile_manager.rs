@@ -12,7 +12,7 @@
 //! the tick of cycle N, not before. A property test drives it against a
 //! model written from the doc.
 
-mod common;
+use crate::common;
 
 use postwarp_rtl::units::tile_manager::TileManager;
 use proptest::prelude::*;

@@ -8,9 +8,7 @@
 //! stalled on `fifo_full` in one that only refused, idle otherwise; with
 //! kernel setup ticked first it sustains `throughput` samples per cycle.
 
-mod common;
-
-use common::{TickLog, activity, stall};
+use crate::common::{TickLog, activity, stall};
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::units::transform::{InFlightSample, TransformStage};
 use postwarp_rtl::units::{StallReason, UnitState};

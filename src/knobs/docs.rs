@@ -11,11 +11,11 @@ use postwarp_rtl::config::{CROSS_RULES, EngineConfig, KNOBS as HW_KNOBS, PRESETS
 use postwarp_rtl::knob::{Knob, KnobValue, Range};
 
 /// Marks around the generated part of `docs/units.md`.
-pub const HW_BEGIN: &str = "<!-- BEGIN knob table: generated from rtl-model/src/config.rs by tests/knob_table.rs (UPDATE_DOCS=1 cargo test --test knob_table) -->";
+pub const HW_BEGIN: &str = "<!-- BEGIN knob table: generated from rtl-model/src/config.rs by tests/knob_table.rs (UPDATE_DOCS=1 cargo test --test suite knob_table::) -->";
 /// End mark.
 pub const HW_END: &str = "<!-- END knob table -->";
 /// Marks around the generated part of `docs/golden.md`.
-pub const GOLDEN_BEGIN: &str = "<!-- BEGIN knob table: generated from src/golden/config.rs by tests/knob_table.rs (UPDATE_DOCS=1 cargo test --test knob_table) -->";
+pub const GOLDEN_BEGIN: &str = "<!-- BEGIN knob table: generated from src/golden/config.rs by tests/knob_table.rs (UPDATE_DOCS=1 cargo test --test suite knob_table::) -->";
 /// End mark.
 pub const GOLDEN_END: &str = "<!-- END knob table -->";
 

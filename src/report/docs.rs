@@ -6,7 +6,7 @@
 use super::keys::{KeyDoc, markdown_table};
 
 /// Marks around the generated part of `docs/report.md`.
-pub const BEGIN: &str = "<!-- BEGIN key lists: generated from src/report/ by tests/report_docs.rs (UPDATE_DOCS=1 cargo test --test report_docs) -->";
+pub const BEGIN: &str = "<!-- BEGIN key lists: generated from src/report/ by tests/report_docs.rs (UPDATE_DOCS=1 cargo test --test suite report_docs::) -->";
 /// End mark.
 pub const END: &str = "<!-- END key lists -->";
 

@@ -81,7 +81,7 @@ pub fn render(cam: &Camera, ss: u32, layers: &[Layer]) -> SampleImage {
 /// Proptest configuration for the `props_*` suites: `default` cases, or the
 /// number in the environment variable `PROPTEST_CASES` when it is set (to
 /// run the suites harder than CI does: `PROPTEST_CASES=10000 cargo test
-/// --test props_raster`). Failing seeds are kept in
+/// --test suite props_raster::`). Failing seeds are kept in
 /// `tests/<suite>.proptest-regressions` and replayed first.
 pub fn prop_config(default: u32) -> proptest::test_runner::Config {
     let cases = std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(default);
