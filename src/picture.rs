@@ -26,25 +26,28 @@ fn srgb_to_linear_formula(code: u8) -> f32 {
 /// `f32`: that formula is monotonic in `l`, so the code is the number of
 /// code boundaries (the smallest `f32` giving each code 1..=255, found by
 /// bisection on the formula once) at or below `l` (tested around every
-/// boundary and on a sweep of values).
+/// boundary and on a sweep of values). The count starts from a table of it
+/// at the first `f32` of each run of 2^16 bit patterns `l` falls in (such a
+/// run spans at most one boundary in [0, 1]), then steps over the
+/// boundaries between that `f32` and `l`.
 pub fn linear_to_srgb8(l: f32) -> u8 {
-    if l.is_nan() || l <= 0.0 {
+    // NaN and l <= 0 fail the test.
+    if !(l > 0.0) {
         return 0;
     }
-    let t = &tables().boundary;
-    // Binary search: the number of boundaries <= l (boundaries increase).
-    let (mut lo, mut n) = (0usize, t.len());
-    while n > 0 {
-        let half = n / 2;
-        if t[lo + half] <= l {
-            lo += half + 1;
-            n -= half + 1;
-        } else {
-            n = half;
-        }
+    if l >= 1.0 {
+        return 255;
     }
-    lo as u8
+    let t = tables();
+    let mut code = t.bucket[(l.to_bits() >> BUCKET_SHIFT) as usize] as usize;
+    while code < t.boundary.len() && t.boundary[code] <= l {
+        code += 1;
+    }
+    code as u8
 }
+
+/// `f32` bit patterns per [`Tables::bucket`] entry: 2^16.
+const BUCKET_SHIFT: u32 = 16;
 
 /// The inverse sRGB EOTF as a formula (what [`linear_to_srgb8`] computes
 /// through its boundary table).
@@ -59,6 +62,9 @@ struct Tables {
     to_linear: [f32; 256],
     /// `boundary[c - 1]`: the smallest non-negative `f32` whose code is `c`.
     boundary: [f32; 255],
+    /// `bucket[i]`: the code of `f32::from_bits(i << BUCKET_SHIFT)`, for the
+    /// bit patterns of [0, 1).
+    bucket: Vec<u8>,
 }
 
 fn tables() -> &'static Tables {
@@ -84,7 +90,10 @@ fn tables() -> &'static Tables {
             }
             *b = f32::from_bits(hi);
         }
-        Tables { to_linear, boundary }
+        let bucket = (0..=one >> BUCKET_SHIFT)
+            .map(|i| boundary.partition_point(|&b| b <= f32::from_bits(i << BUCKET_SHIFT)) as u8)
+            .collect();
+        Tables { to_linear, boundary, bucket }
     })
 }
 
@@ -152,6 +161,13 @@ mod tests {
         for &b in tables().boundary.iter() {
             let bits = b.to_bits();
             for x in bits.saturating_sub(4096)..=bits + 4096 {
+                let l = f32::from_bits(x);
+                assert_eq!(linear_to_srgb8(l), linear_to_srgb8_formula(l), "l = {l:e} ({x:#x})");
+            }
+        }
+        // Both ends of every bucket of the table the count starts from.
+        for i in 0..=1.0f32.to_bits() >> BUCKET_SHIFT {
+            for x in [i << BUCKET_SHIFT, ((i + 1) << BUCKET_SHIFT) - 1] {
                 let l = f32::from_bits(x);
                 assert_eq!(linear_to_srgb8(l), linear_to_srgb8_formula(l), "l = {l:e} ({x:#x})");
             }

@@ -334,7 +334,12 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     // as they see it on unknown pixels; a mask of every known pixel is the
     // whole-image case.
     let separate_common = common != *known;
-    let common8 = if separate_common { outside_as_truth(input.image, &truth8, &common) } else { Vec::new() };
+    // common ⊆ known, so image8 holds the image's codes on it.
+    let common8: Vec<[u8; 3]> = if separate_common {
+        image8.iter().zip(&truth8).enumerate().map(|(i, (c, t))| if common[i] { *c } else { *t }).collect()
+    } else {
+        Vec::new()
+    };
     let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
     // The two FLIPs (the most expensive, one thread each) beside each other
     // and beside the rest; each score is computed once, whatever the
