@@ -31,8 +31,7 @@ fn srgb_to_linear_formula(code: u8) -> f32 {
 /// run spans at most one boundary in [0, 1]), then steps over the
 /// boundaries between that `f32` and `l`.
 pub fn linear_to_srgb8(l: f32) -> u8 {
-    // NaN and l <= 0 fail the test.
-    if !(l > 0.0) {
+    if l.is_nan() || l <= 0.0 {
         return 0;
     }
     if l >= 1.0 {
