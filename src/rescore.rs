@@ -127,6 +127,8 @@ pub fn score_run(trace: &Trace, dir: &Path) -> anyhow::Result<RunScore> {
                 covered: None,
                 common: None,
                 seen: None,
+                // Scoring again is analysis, not a timed run: always FLIP.
+                flip: true,
             })?;
             for (s, v) in sums[r].iter_mut().zip([q.psnr_luma_db, q.ssim_luma, q.flip_mean]) {
                 *s += v;

@@ -33,14 +33,15 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
             "engine forward-splat",
             "engine hardware-model",
             "process golden",
+            "process golden --flip",
             "process golden",
             "process simulate",
             "process simulate"
         ],
         "{text}"
     );
-    assert!(rows[3][1].starts_with("traces/motorcycle 741x500"), "{text}");
-    assert!(rows[6][1].starts_with("room 200x200 2x2") && rows[6][1].ends_with("preset hmd2026"), "{text}");
+    assert!(rows[3][1].starts_with("traces/motorcycle 741x500") && rows[4][1] == rows[3][1], "{text}");
+    assert!(rows[7][1].starts_with("room 200x200 2x2") && rows[7][1].ends_with("preset hmd2026"), "{text}");
     for r in &rows {
         assert_eq!(r.len(), 8, "eight columns: {r:?}");
         let threads: usize = r[2].parse().expect("threads");

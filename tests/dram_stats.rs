@@ -25,7 +25,7 @@ fn sum(h: &BTreeMap<String, u64>) -> u64 {
 fn the_ideal_backend_reports_latency_occupancy_and_bandwidth() {
     let trace = Trace::open(&root().join("traces/room")).unwrap();
     let cfg = EngineConfig::default();
-    let r = measure_hardware(&trace, &cfg, None, &indicatif::ProgressBar::hidden()).unwrap().report;
+    let r = measure_hardware(&trace, &cfg, false, None, &indicatif::ProgressBar::hidden()).unwrap().report;
     for f in &r.frames {
         let c = &f.counters;
         let reads = sum(&c.dram_read_latency);

@@ -42,7 +42,7 @@ fn hole_fill_raises_quality_on_room() {
 #[test]
 fn printed_table_and_report_agree() {
     let dir = tempfile::tempdir().unwrap();
-    let (stdout, report) = golden("occluders", dir.path(), &[]);
+    let (stdout, report) = golden("occluders", dir.path(), &["--flip"]);
     let keys = [
         "psnr_rgb_db",
         "psnr_rgb_covered_db",
@@ -96,6 +96,54 @@ fn printed_table_and_report_agree() {
             assert!(f.get(key).is_some(), "frame lacks {key}");
         }
     }
+}
+
+/// FLIP is scored only with `--flip`: without it the report says so
+/// (`flip` = false), every FLIP key is null and the table prints `-`;
+/// every other score is the same number either way. The same for
+/// `simulate`.
+#[test]
+fn flip_only_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let (stdout, without) = golden("occluders", &dir.path().join("a"), &[]);
+    let (_, with) = golden("occluders", &dir.path().join("b"), &["--flip"]);
+    assert_eq!((&without["flip"], &with["flip"]), (&Value::Bool(false), &Value::Bool(true)));
+    let (fa, fb) = (without["frames"].as_array().unwrap(), with["frames"].as_array().unwrap());
+    assert_eq!(fa.len(), fb.len());
+    for (a, b) in fa.iter().zip(fb) {
+        for key in ["flip_mean", "flip_mean_common"] {
+            assert!(a[key].is_null(), "{key} without --flip: {}", a[key]);
+            assert!(b[key].as_f64().is_some_and(|v| v > 0.0), "{key} with --flip: {}", b[key]);
+        }
+        for key in ["psnr_rgb_db", "psnr_luma_db", "ssim_luma", "ssim_luma_common", "delta_e20_fraction"] {
+            assert_eq!(a[key], b[key], "{key}");
+        }
+    }
+    assert!(without["mean"]["flip_mean"].is_null() && with["mean"]["flip_mean"].as_f64().is_some());
+    let mean_row: Vec<&str> = stdout
+        .lines()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .find(|c| c.first() == Some(&"mean"))
+        .unwrap_or_else(|| panic!("a mean row in {stdout}"));
+    assert_eq!(mean_row[6], "-", "the FLIP column of {mean_row:?}");
+
+    let sim = |out: &Path, extra: &[&str]| -> Value {
+        let o = Command::new(env!("CARGO_BIN_EXE_postwarp"))
+            .arg("simulate")
+            .arg(root().join("traces/occluders"))
+            .arg("--out")
+            .arg(out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
+    };
+    let (a, b) = (sim(&dir.path().join("s"), &[]), sim(&dir.path().join("t"), &["--flip"]));
+    assert_eq!((&a["flip"], &b["flip"]), (&Value::Bool(false), &Value::Bool(true)));
+    assert!(a["mean"]["vs_truth"]["flip_mean"].is_null(), "{}", a["mean"]["vs_truth"]);
+    assert!(b["mean"]["vs_truth"]["flip_mean"].as_f64().is_some(), "{}", b["mean"]["vs_truth"]);
+    assert_eq!(a["mean"]["vs_truth"]["psnr_luma_db"], b["mean"]["vs_truth"]["psnr_luma_db"]);
 }
 
 /// The frame names (`frame-NNNN.png`) in `dir`, sorted.

@@ -26,7 +26,7 @@ fn identical(scene: &str, (w, h, ss, fragments): (u32, u32, u32, u32)) -> (u64, 
     // Tiles hold whole pixels: 3x3 super-sampling needs a multiple of 3.
     let tile_size = if d.tile_size % ss == 0 { d.tile_size } else { 4 * ss };
     let cfg = EngineConfig { abuffer_fragments: fragments, tile_size, ..d };
-    let r = measure_hardware(&trace, &cfg, None, &indicatif::ProgressBar::hidden()).unwrap();
+    let r = measure_hardware(&trace, &cfg, false, None, &indicatif::ProgressBar::hidden()).unwrap();
     (r.report.total.identical_frames, r.report.total.frames)
 }
 

@@ -155,6 +155,7 @@ fn compare_writes_one_row_per_method_and_trace() {
         "none,epipolar",
         "--runs",
         "1",
+        "--flip",
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("compare.csv")).unwrap();

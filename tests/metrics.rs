@@ -38,7 +38,7 @@ fn input<'a>(
     known: &'a BitVec,
     covered: Option<&'a BitVec>,
 ) -> MetricInput<'a> {
-    MetricInput { width: w, height: h, image, truth, known, covered, common: None, seen: None }
+    MetricInput { width: w, height: h, image, truth, known, covered, common: None, seen: None, flip: true }
 }
 
 #[test]
@@ -283,6 +283,7 @@ fn the_common_mask_is_the_intersection_it_claims() {
         covered: Some(&cov_a),
         common: Some(&(seen.clone() & &cov_a & &cov_b)),
         seen: Some(&seen),
+        flip: true,
     })
     .unwrap();
     assert_eq!(q.common_pixels, expected);
@@ -295,6 +296,33 @@ fn the_common_mask_is_the_intersection_it_claims() {
     assert!(e.to_string().contains("seen mask has 479 entries; expected 480"), "{e}");
     let e = common_mask(&known, None, &[&cov_a, &short]).unwrap_err();
     assert!(e.to_string().contains("covered mask"), "{e}");
+}
+
+/// FLIP is computed only when asked: without it both FLIP keys are NaN and
+/// every other score is the same number, with a common mask of its own
+/// (the second FLIP) and without.
+#[test]
+fn flip_only_when_asked() {
+    let (w, h) = (24u32, 20u32);
+    let n = (w * h) as usize;
+    let truth: Vec<[f32; 3]> = (0..n).map(|i| [srgb_to_linear((i * 7 % 251) as u8); 3]).collect();
+    let image: Vec<[f32; 3]> = (0..n).map(|i| [srgb_to_linear((i * 7 % 251) as u8 / 2 + 40); 3]).collect();
+    let known = BitVec::repeat(true, n);
+    let common: BitVec = (0..n).map(|i| i % 3 != 0).collect();
+    for common in [None, Some(&common)] {
+        let with = MetricInput { common, ..input(w, h, &image, &truth, &known, None) };
+        let a = evaluate(&with).unwrap();
+        let b = evaluate(&MetricInput { flip: false, ..with }).unwrap();
+        assert!(a.flip_mean > 0.0 && a.flip_mean_common > 0.0, "{a:?}");
+        assert!(b.flip_mean.is_nan() && b.flip_mean_common.is_nan(), "{b:?}");
+        let masked = |mut q: Quality| {
+            q.flip_mean = 0.0;
+            q.flip_mean_common = 0.0;
+            q
+        };
+        // Debug text: NaN scores (nothing never-seen) compare equal there.
+        assert_eq!(format!("{:?}", masked(a)), format!("{:?}", masked(b)));
+    }
 }
 
 /// Pixel `i` is clear in `term` and set in every other mask of `all`.

@@ -41,7 +41,7 @@ fn both_methods_run_by_name_and_score_separates_the_mask() {
     let mut runs = Vec::new();
     for (m, unit) in [("schollmeyer-transparent", "quadtree cells visited"), ("lochmann-raytree", "gradient steps")] {
         let out = d.path().join(m);
-        ok(&postwarp(&["golden", t, "--method", m, "--runs", "1", "--out", out.to_str().unwrap()]));
+        ok(&postwarp(&["golden", t, "--method", m, "--runs", "1", "--flip", "--out", out.to_str().unwrap()]));
         let r = report(&out);
         assert_eq!(r["method"], m);
         assert_eq!(r["primitive"], unit);

@@ -13,7 +13,7 @@ use std::path::Path;
 
 fn run(trace: &str, cfg: &EngineConfig) -> SimulateRun {
     let t = Trace::open(&Path::new(env!("CARGO_MANIFEST_DIR")).join("traces").join(trace)).unwrap();
-    measure_hardware(&t, cfg, None, &indicatif::ProgressBar::hidden()).unwrap()
+    measure_hardware(&t, cfg, false, None, &indicatif::ProgressBar::hidden()).unwrap()
 }
 
 fn psnr(r: &SimulateRun) -> f64 {

@@ -69,12 +69,12 @@ fn every_key_written_is_described_with_a_unit() {
     let quiet = indicatif::ProgressBar::hidden();
     for rec in postwarp::methods::reconstructions() {
         let fill = postwarp::methods::hole_fill(rec.info().default_hole_fill).unwrap();
-        let r = postwarp::run::method::measure_method(&t1, rec.as_ref(), fill.as_ref(), 1, None, &quiet).unwrap();
+        let r = postwarp::run::method::measure_method(&t1, rec.as_ref(), fill.as_ref(), 1, true, None, &quiet).unwrap();
         check(&serde_json::to_value(&r.report).unwrap(), &method::report_keys(), rec.info().name);
     }
     let rec = postwarp::methods::reconstruction("forward-splat").unwrap();
     for fill in postwarp::methods::hole_fills() {
-        let r = postwarp::run::method::measure_method(&t1, rec.as_ref(), fill.as_ref(), 1, None, &quiet).unwrap();
+        let r = postwarp::run::method::measure_method(&t1, rec.as_ref(), fill.as_ref(), 1, true, None, &quiet).unwrap();
         check(&serde_json::to_value(&r.report).unwrap(), &method::report_keys(), fill.info().name);
     }
 }
@@ -89,6 +89,7 @@ fn version_1_reports_read_as_version_2() {
         panic!("not read as a simulate report")
     };
     assert_eq!(s.report_version, postwarp::report::REPORT_VERSION);
+    assert!(s.flip, "version 1 always scored FLIP");
     for (f, o) in s.frames.iter().zip(old["frames"].as_array().unwrap()) {
         assert_eq!(f.counters.kernels_over_limit, o["kernels_over_4x4"].as_u64().unwrap());
         assert_eq!(f.rates.dram_gbps_at_target_rate, o["bandwidth_gbps_at_target_rate"].as_f64().unwrap());
@@ -122,6 +123,7 @@ fn version_1_reports_read_as_version_2() {
         panic!()
     };
     assert_eq!(m.method, "smit-point");
+    assert!(m.flip && g.flip);
     assert!(m.mean.reconstruction.get("fragments").is_some(), "version 1 had no mean of the method counters");
     assert!(m.total.reconstruction.get("mean_splat_side").is_none(), "a per-frame mean is not summed");
 }
@@ -140,6 +142,14 @@ fn reports_round_trip_and_newer_versions_are_refused() {
     assert_ne!(newer, text);
     let e = postwarp::report::parse(&newer, Path::new("x/report.json")).unwrap_err().to_string();
     assert!(e.contains(&format!("x/report.json: report_version {next} was written by a newer postwarp")), "{e}");
+    // Version 4 (before FLIP was optional) always scored it.
+    assert!(!s.flip, "simulate without --flip");
+    let v4 = text
+        .replacen(&format!("\"report_version\": {now}"), "\"report_version\": 4", 1)
+        .replacen("\"flip\": false,\n", "", 1);
+    assert!(!v4.contains("\"flip\""), "the key removed");
+    let Report::Simulate(s4) = postwarp::report::parse(&v4, Path::new("v4.json")).unwrap() else { panic!() };
+    assert!(s4.flip);
     // Version 3 (before the prefetch) reads, its new keys 0.
     let v3 = text.replacen(&format!("\"report_version\": {now}"), "\"report_version\": 3", 1);
     let Report::Simulate(s3) = postwarp::report::parse(&v3, Path::new("v3.json")).unwrap() else { panic!() };

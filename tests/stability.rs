@@ -46,7 +46,8 @@ const EXTREMES: &[(&str, &str, &str)] = &[
 #[test]
 fn every_method_survives_the_extreme_of_every_stressor() {
     let d = tempfile::tempdir().unwrap();
-    let mut spec = String::from("name = \"extremes\"\nruns = 1\nmethods = \"all\"\nhole_fills = \"default\"\n");
+    let mut spec =
+        String::from("name = \"extremes\"\nruns = 1\nflip = true\nmethods = \"all\"\nhole_fills = \"default\"\n");
     for (name, scene, knob) in EXTREMES {
         // A scene file is named from the repository root (the spec is in a temporary directory).
         let scene = if scene.ends_with(".toml") { root().join(scene).display().to_string() } else { scene.to_string() };

@@ -11,7 +11,8 @@
 //!    references after the A-buffer.
 //! 2. Process rows time a child process of this same binary from spawn to
 //!    exit with every core: `golden` on the real pair (`--real-pair`,
-//!    default `traces/motorcycle`) and on the standard frame written as a
+//!    default `traces/motorcycle`), without and with `--flip` (what
+//!    scoring FLIP costs), and on the standard frame written as a
 //!    one-frame trace, `simulate` on that trace. Their samples are all
 //!    samples of the references the trace's derived frames warp (summed
 //!    over frames); peak RSS is the child's own `VmHWM` (it writes it at
@@ -218,7 +219,7 @@ fn process_row(
         Ok(())
     })?;
     Ok(Row {
-        what: format!("process {cmd}"),
+        what: format!("process {cmd}{}", if extra.contains(&"--flip") { " --flip" } else { "" }),
         input,
         threads,
         times,
@@ -340,7 +341,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         real.display.supersample,
         real.display.supersample
     );
-    rows.push(process_row("golden", &[], &a.real_pair, real_name, &scratch.0, repeats, cores)?);
+    rows.push(process_row("golden", &[], &a.real_pair, real_name.clone(), &scratch.0, repeats, cores)?);
+    rows.push(process_row("golden", &["--flip"], &a.real_pair, real_name, &scratch.0, repeats, cores)?);
     rows.push(process_row("golden", &[], &frame_trace, frame_name.clone(), &scratch.0, repeats, cores)?);
     rows.push(process_row("simulate", &[], &frame_trace, frame_name, &scratch.0, repeats, cores)?);
     if a.hmd {

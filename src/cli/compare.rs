@@ -31,6 +31,10 @@ pub struct Args {
     /// Runs per frame; `host_ms` is their median.
     #[arg(long, default_value_t = 3)]
     pub runs: u32,
+    /// Also score FLIP (`flip_mean`, `flip_mean_common`; otherwise null):
+    /// two single-threaded evaluations per frame, the costliest metric.
+    #[arg(long)]
+    pub flip: bool,
 }
 
 /// The (method, hole fill) pairs the flags select, in listing order.
@@ -66,7 +70,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let pairs = pairs(&a)?;
     let inputs: Vec<&std::path::Path> = a.traces.iter().map(PathBuf::as_path).collect();
     let out = crate::io_util::OutDir::create(&a.out, a.force, &inputs)?;
-    let rows = run_compare(&a.traces, &pairs, a.runs, out.path())?;
+    let rows = run_compare(&a.traces, &pairs, a.runs, a.flip, out.path())?;
     out.commit()?;
     print!("{}", crate::run::compare::markdown(&rows));
     println!("wrote {} and {}", a.out.join("compare.md").display(), a.out.join("compare.csv").display());

@@ -55,6 +55,10 @@ pub struct Args {
     /// Runs per frame with `--method`; `host_ms` is their median.
     #[arg(long, default_value_t = 3, requires = "method")]
     pub runs: u32,
+    /// Also score FLIP (`flip_mean`, `flip_mean_common`; otherwise null):
+    /// two single-threaded evaluations per frame, the costliest metric.
+    #[arg(long)]
+    pub flip: bool,
 }
 
 /// True if any golden knob flag or `--config` was given.
@@ -110,7 +114,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let cfg = config(&a)?;
     let trace = Trace::open(&a.trace)?;
     let out = crate::io_util::OutDir::create(&a.out, a.force, &[&trace.manifest])?;
-    let r = run_golden(&trace, &cfg, out.path())?;
+    let r = run_golden(&trace, &cfg, a.flip, out.path())?;
     out.commit()?;
     println!("{}: {} frames, method {}", trace.manifest.display(), trace.derived.len(), r.report.method);
     let slopes = &r.report.references.slopes;
@@ -136,7 +140,7 @@ fn run_method(a: &Args, name: &str) -> anyhow::Result<()> {
     let fill = crate::methods::hole_fill(&fill_name)?;
     let trace = Trace::open(&a.trace)?;
     let out = crate::io_util::OutDir::create(&a.out, a.force, &[&trace.manifest])?;
-    let r = crate::run::method::run_method(&trace, rec.as_ref(), fill.as_ref(), a.runs, out.path())?;
+    let r = crate::run::method::run_method(&trace, rec.as_ref(), fill.as_ref(), a.runs, a.flip, out.path())?;
     out.commit()?;
     println!(
         "{}: {} frames, method {} + hole fill {} ({}), host_ms = median of {} runs",

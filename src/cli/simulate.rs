@@ -51,6 +51,10 @@ pub struct Args {
     #[arg(long, value_name = "CYCLES", default_value_t = crate::report::timeline::DEFAULT_RESOLUTION,
           value_parser = clap::value_parser!(u64).range(1..=1 << 32), requires = "timeline")]
     pub timeline_resolution: u64,
+    /// Also score FLIP (`flip_mean`, `flip_mean_common`; otherwise null):
+    /// two single-threaded evaluations per frame, the costliest metric.
+    #[arg(long)]
+    pub flip: bool,
     /// Also write every DRAM request of the run to FILE, for open-loop
     /// replay in a DRAM simulator: one line or packet per burst, frames in
     /// order, times continuing across frames; gzip if FILE ends in `.gz`
@@ -91,8 +95,14 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Some(file) => Some(DramTraceWriter::create(file, a.dram_trace_format, cfg.dram_burst_bytes, cfg.clock_hz)?),
         None => None,
     };
-    let r =
-        run_simulate(&trace, &cfg, staged.path(), a.timeline.then_some(a.timeline_resolution), dram_trace.as_mut())?;
+    let r = run_simulate(
+        &trace,
+        &cfg,
+        a.flip,
+        staged.path(),
+        a.timeline.then_some(a.timeline_resolution),
+        dram_trace.as_mut(),
+    )?;
     let transactions = dram_trace.map(DramTraceWriter::finish).transpose()?;
     let dir = staged.commit()?;
     print!("{}", r.summary);

@@ -27,6 +27,10 @@
 //!   [`Quality::hole_fraction`] (known ∧ ¬covered over known).
 //! * **Nothing to score.** A metric with no pixel to score is NaN (e.g. every
 //!   pixel unknown, or nothing covered for `psnr_rgb_covered_db`).
+//! * **FLIP only when asked** ([`MetricInput::flip`], the commands'
+//!   `--flip`): its two evaluations per frame (one thread of C++ each) were
+//!   the critical path of a whole `golden` process (issue 20). Without it
+//!   `flip_mean` and `flip_mean_common` are NaN (`null` in report.json).
 //! * **Infinities.** Identical images give PSNR = +∞ (MSE = 0). Both stay as
 //!   they are in memory; when a [`Quality`] is serialized (report.json), every
 //!   non-finite float is written as `null` ([`serialize_finite_or_null`]).
@@ -72,6 +76,8 @@ pub struct MetricInput<'a> {
     /// Set where a reference sees the pixel (the truth's `seen` channel);
     /// `None` = every pixel seen. Its complement is the never-seen region.
     pub seen: Option<&'a BitVec>,
+    /// Compute FLIP (`flip_mean`, `flip_mean_common`); false leaves both NaN.
+    pub flip: bool,
 }
 
 /// The scores of one image against its ground truth. Field names are the
@@ -178,7 +184,7 @@ const DOCS: &[MetricDoc] = &[
     MetricDoc {
         key: "flip_mean",
         unit: "—",
-        description: "mean LDR-FLIP error (Andersson et al. 2020, 67 pixels per degree) over known pixels, 0 to 1",
+        description: "mean LDR-FLIP error (Andersson et al. 2020, 67 pixels per degree) over known pixels, 0 to 1; null unless asked (--flip)",
     },
     MetricDoc {
         key: "hole_fraction",
@@ -203,7 +209,7 @@ const DOCS: &[MetricDoc] = &[
     MetricDoc {
         key: "flip_mean_common",
         unit: "—",
-        description: "flip_mean averaged over the common mask, the image taking the truth outside it, 0 to 1",
+        description: "flip_mean averaged over the common mask, the image taking the truth outside it, 0 to 1; null unless asked (--flip)",
     },
     MetricDoc {
         key: "psnr_rgb_never_seen_db",
@@ -347,8 +353,14 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     let ((flip_mean, flip_c), ((ssim_luma, ssim_c), delta_e20_fraction)) = rayon::join(
         || {
             rayon::join(
-                || flip::flip_mean(input.width, input.height, &image8, &truth8, known),
-                || separate_common.then(|| flip::flip_mean(input.width, input.height, &common8, &truth8, &common)),
+                || match input.flip {
+                    true => flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+                    false => f64::NAN,
+                },
+                || {
+                    (separate_common && input.flip)
+                        .then(|| flip::flip_mean(input.width, input.height, &common8, &truth8, &common))
+                },
             )
         },
         || {
@@ -365,9 +377,9 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     );
     let psnr_luma_db = psnr::psnr_plane(&image_luma, &truth_luma, known);
     let psnr_rgb_db = psnr::psnr_rgb(&image8, &truth8, known);
-    let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = match (flip_c, ssim_c) {
-        (Some(flip_c), Some(ssim_c)) => (psnr::psnr_rgb(&common8, &truth8, &common), ssim_c, flip_c),
-        _ => (psnr_rgb_db, ssim_luma, flip_mean),
+    let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = match ssim_c {
+        Some(ssim_c) => (psnr::psnr_rgb(&common8, &truth8, &common), ssim_c, flip_c.unwrap_or(f64::NAN)),
+        None => (psnr_rgb_db, ssim_luma, flip_mean),
     };
 
     Ok(Quality {
@@ -473,6 +485,7 @@ mod tests {
             covered: None,
             common: None,
             seen: None,
+            flip: true,
         };
         let (i8, t8) = encode_pair(&input);
         assert_eq!(i8, vec![[10; 3], [210; 3]]);
@@ -493,6 +506,7 @@ mod tests {
             covered: None,
             common: None,
             seen: None,
+            flip: true,
         };
         assert_eq!(check(&ok), Ok(6));
         let e = check(&MetricInput { common: Some(&short), ..ok }).unwrap_err();

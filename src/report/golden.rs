@@ -324,6 +324,8 @@ pub struct GoldenReport {
     pub kind: ReportKind,
     /// Path of the trace manifest.
     pub trace: String,
+    /// FLIP scored (`--flip`); false: the FLIP keys are null.
+    pub flip: bool,
     /// `mark-aa` or `mark-general`.
     pub method: String,
     /// Every golden knob.
@@ -343,6 +345,7 @@ impl GoldenReport {
     /// rules.
     pub fn new(
         trace: String,
+        flip: bool,
         method: String,
         config: GoldenConfig,
         references: GoldenReferences,
@@ -356,6 +359,7 @@ impl GoldenReport {
             report_version: REPORT_VERSION,
             kind: ReportKind::Golden,
             trace,
+            flip,
             method,
             config,
             references,

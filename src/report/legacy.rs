@@ -64,11 +64,12 @@ pub fn upgrade(mut v: Value) -> anyhow::Result<Report> {
                 golden_host_ms: f.golden_host_ms,
             });
         }
-        return Ok(Report::Simulate(SimulateReport::new(trace, &cfg, from_trace, out)));
+        return Ok(Report::Simulate(SimulateReport::new(trace, true, &cfg, from_trace, out)));
     }
     if let Some(fill) = v.get("hole_fill").and_then(Value::as_str) {
         let header = MethodHeader {
             trace,
+            flip: true,
             method,
             hole_fill: fill.to_string(),
             paper: string(&v, "paper")?,
@@ -82,5 +83,5 @@ pub fn upgrade(mut v: Value) -> anyhow::Result<Report> {
     let config = serde_json::from_value(v["config"].take()).context("`config`")?;
     let references: GoldenReferences = serde_json::from_value(v["references"].take()).context("`references`")?;
     let frames: Vec<GoldenFrame> = serde_json::from_value(Value::Array(frames)).context("`frames`")?;
-    Ok(Report::Golden(GoldenReport::new(trace, method, config, references, frames)))
+    Ok(Report::Golden(GoldenReport::new(trace, true, method, config, references, frames)))
 }

@@ -234,6 +234,8 @@ pub struct MethodReport {
     pub kind: ReportKind,
     /// Path of the trace manifest.
     pub trace: String,
+    /// FLIP scored (`--flip`); false: the FLIP keys are null.
+    pub flip: bool,
     /// Reconstruction name (`postwarp methods`).
     pub method: String,
     /// Hole-fill name.
@@ -259,6 +261,8 @@ pub struct MethodReport {
 pub struct MethodHeader {
     /// Path of the trace manifest.
     pub trace: String,
+    /// FLIP scored.
+    pub flip: bool,
     /// Reconstruction name.
     pub method: String,
     /// Hole-fill name.
@@ -282,6 +286,7 @@ impl MethodReport {
             report_version: REPORT_VERSION,
             kind: ReportKind::Method,
             trace: h.trace,
+            flip: h.flip,
             method: h.method,
             hole_fill: h.hole_fill,
             paper: h.paper,

@@ -36,6 +36,10 @@
 //!    prefetch or on demand (tiles), where versions 1–3 counted look-ups
 //!    that missed on first use (accesses); without a prefetch the two are
 //!    the same number. Older files read unchanged, their new keys 0.
+//! 7. Version 5 scores FLIP only when asked (`--flip`, issue 20): the
+//!    header's `flip` says whether it did, and without it `flip_mean` and
+//!    `flip_mean_common` are `null`. Older files read with `flip` = true
+//!    (they always scored it).
 
 pub mod budget;
 pub mod csv;
@@ -65,7 +69,7 @@ use serde_json::{Map, Value};
 use std::path::Path;
 
 /// The version of `report.json` this build writes (module rule 1).
-pub const REPORT_VERSION: u32 = 4;
+pub const REPORT_VERSION: u32 = 5;
 
 /// Which command wrote a report.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -118,7 +122,7 @@ pub(crate) fn header_keys() -> Vec<KeyDoc> {
             "report_version",
             "—",
             Reduce::Once,
-            "version of this layout (4); files without it are version 1 (`docs/report.md`, reading older files)",
+            "version of this layout (5); files without it are version 1 (`docs/report.md`, reading older files)",
         ),
         scalar(
             "kind",
@@ -127,6 +131,12 @@ pub(crate) fn header_keys() -> Vec<KeyDoc> {
             "the command that wrote it: `golden`, `method` (`golden --method`) or `simulate`",
         ),
         scalar("trace", "—", Reduce::Once, "path of the trace manifest"),
+        scalar(
+            "flip",
+            "—",
+            Reduce::Once,
+            "true if FLIP was scored (`--flip`); false: `flip_mean` and `flip_mean_common` are null",
+        ),
     ]
 }
 
@@ -158,9 +168,15 @@ pub fn parse(text: &str, path: &Path) -> anyhow::Result<Report> {
     if version < REPORT_VERSION_U64 {
         rename_config_knobs(&mut v);
     }
+    // Before version 5 every report scored FLIP (module rule 7).
+    if version < 5
+        && let Some(o) = v.as_object_mut()
+    {
+        o.entry("flip").or_insert(Value::Bool(true));
+    }
     let r = match version {
         1 => legacy::upgrade(v).with_context(|| format!("{}: reading a version-1 report", path.display()))?,
-        2 | 3 | REPORT_VERSION_U64 => {
+        2..=REPORT_VERSION_U64 => {
             from_value(v).with_context(|| format!("{}: not a version-{version} report", path.display()))?
         }
         n => bail!(

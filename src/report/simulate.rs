@@ -108,6 +108,8 @@ pub struct SimulateReport {
     pub kind: ReportKind,
     /// Path of the trace manifest.
     pub trace: String,
+    /// FLIP scored (`--flip`); false: the FLIP keys are null.
+    pub flip: bool,
     /// `mark-hw`.
     pub method: String,
     /// Every hardware knob: value, in `KNOBS` order.
@@ -133,7 +135,13 @@ pub struct SimulateReport {
 impl SimulateReport {
     /// The report of `frames` run with `cfg`: `total` and `mean` by the key
     /// rules, the mean's rates from the mean counters.
-    pub fn new(trace: String, cfg: &EngineConfig, supersample_from_trace: bool, frames: Vec<HwFrame>) -> Self {
+    pub fn new(
+        trace: String,
+        flip: bool,
+        cfg: &EngineConfig,
+        supersample_from_trace: bool,
+        frames: Vec<HwFrame>,
+    ) -> Self {
         let identical = frames.iter().filter(|f| f.vs_golden.identical).count();
         let (total, mut mean): (HwTotal, HwMean) = super::reduce(&frames, &frame_keys(), |t| {
             t.insert("frames".into(), frames.len().into());
@@ -144,6 +152,7 @@ impl SimulateReport {
             report_version: REPORT_VERSION,
             kind: ReportKind::Simulate,
             trace,
+            flip,
             method: "mark-hw".into(),
             config: crate::run::hw_config_toml::to_json_map(cfg),
             supersample_from_trace,

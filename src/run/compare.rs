@@ -119,7 +119,7 @@ fn trace_name(p: &Path) -> String {
 pub type Pair = (Box<dyn Reconstruction>, Box<dyn HoleFill>);
 
 /// Run every `(reconstruction, hole fill)` pair on every trace.
-pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) -> anyhow::Result<Vec<Row>> {
+pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, flip: bool, out: &Path) -> anyhow::Result<Vec<Row>> {
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let mut rows = Vec::new();
     for t in traces {
@@ -129,7 +129,7 @@ pub fn run_compare(traces: &[PathBuf], pairs: &[Pair], runs: u32, out: &Path) ->
         for (rec, fill) in pairs {
             let (m, f) = (rec.info().name, fill.info().name);
             let dir = out.join(&name).join(format!("{m}+{f}"));
-            let r = run_method(&trace, rec.as_ref(), fill.as_ref(), runs, &dir)
+            let r = run_method(&trace, rec.as_ref(), fill.as_ref(), runs, flip, &dir)
                 .with_context(|| format!("{name}: method {m} with hole fill {f}"))?;
             runs_of_trace.push((m, f, dir, r.report));
         }
@@ -195,6 +195,7 @@ pub fn score_common(trace: &Trace, dirs: &[&Path], reports: &mut [MethodReport])
                 covered: Some(cov),
                 common: Some(&common),
                 seen: truth.seen.as_ref(),
+                flip: report.flip,
             })?;
             let f = report.frames.iter_mut().find(|f| f.index == k).context("a run without the frame")?;
             f.scores.psnr_rgb_common_db = q.psnr_rgb_common_db.is_finite().then_some(q.psnr_rgb_common_db);

@@ -55,8 +55,9 @@ pub fn frame_samples(f: &GoldenFrame) -> SampleImage {
     derived_samples(&planes(f))
 }
 
-/// Run the golden model on `trace` with `cfg`, writing into `out`.
-pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Result<GoldenRun> {
+/// Run the golden model on `trace` with `cfg`, writing into `out`; FLIP
+/// is scored only with `flip`.
+pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> anyhow::Result<GoldenRun> {
     cfg.validate().map_err(|e| anyhow::anyhow!("golden configuration: {e}"))?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let ss = trace.display.supersample;
@@ -100,7 +101,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
         prepared.retain(|r, _| last_use[r] > k);
         // Scoring (with the heat-map) beside writing the frame's files.
         let (quality, written) = rayon::join(
-            || super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, Some(out)),
+            || super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, flip, Some(out)),
             || write_frame_files(out, k, &frame, w, h, ss),
         );
         let quality = quality?;
@@ -118,6 +119,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, out: &Path) -> anyhow::Resu
     bar.finish_and_clear();
     let report = GoldenReport::new(
         trace.manifest.display().to_string(),
+        flip,
         method_name(cfg).into(),
         cfg.clone(),
         GoldenReferences { slopes, prepare_ms },

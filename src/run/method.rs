@@ -53,22 +53,24 @@ pub fn run_method(
     rec: &dyn Reconstruction,
     fill: &dyn HoleFill,
     runs: u32,
+    flip: bool,
     out: &Path,
 ) -> anyhow::Result<MethodRun> {
     let bar = crate::progress::bar(trace.derived.len() as u64, rec.info().name);
-    let r = measure_method(trace, rec, fill, runs, Some(out), &bar)?;
+    let r = measure_method(trace, rec, fill, runs, flip, Some(out), &bar)?;
     bar.finish_and_clear();
     Ok(r)
 }
 
 /// Run `rec` + `fill` on `trace`, `runs` times per frame, and build the
-/// report; with `out`, also write the frame files and `report.json` there.
-/// `bar` advances once per frame.
+/// report (FLIP only with `flip`); with `out`, also write the frame files
+/// and `report.json` there. `bar` advances once per frame.
 pub fn measure_method(
     trace: &Trace,
     rec: &dyn Reconstruction,
     fill: &dyn HoleFill,
     runs: u32,
+    flip: bool,
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<MethodRun> {
@@ -115,7 +117,7 @@ pub fn measure_method(
             }
         }
         let frame = frame.expect("runs >= 1");
-        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, out)?;
+        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, flip, out)?;
         if let Some(out) = out {
             crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
             write_hole_mask(
@@ -145,6 +147,7 @@ pub fn measure_method(
     let info = rec.info();
     let header = MethodHeader {
         trace: trace.manifest.display().to_string(),
+        flip,
         method: info.name.into(),
         hole_fill: fill.info().name.into(),
         paper: info.paper.into(),

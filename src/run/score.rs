@@ -18,13 +18,15 @@ pub const HEATMAP_FULL_SCALE: f64 = 64.0;
 
 /// Score derived frame `k` of `trace`, a `w x h` image `pixels` whose
 /// `covered` bits mark pixels covered by real samples, against the trace's
-/// truth; with `out`, also write `out/diff-<k>.png`.
+/// truth (FLIP only with `flip`, [`crate::metrics::MetricInput::flip`]);
+/// with `out`, also write `out/diff-<k>.png`.
 pub fn score_frame(
     trace: &Trace,
     k: usize,
     (w, h): (u32, u32),
     pixels: &[[f32; 3]],
     covered: &BitVec,
+    flip: bool,
     out: Option<&Path>,
 ) -> anyhow::Result<Option<Quality>> {
     let Some(truth) = trace.load_truth(k)? else { return Ok(None) };
@@ -38,6 +40,7 @@ pub fn score_frame(
         covered: Some(covered),
         common: Some(&common),
         seen: truth.seen.as_ref(),
+        flip,
     })?;
     if let Some(out) = out {
         write_diff_heatmap(

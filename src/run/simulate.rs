@@ -67,35 +67,40 @@ pub struct SimulateRun {
 /// With `timeline = Some(resolution)`, also `timeline-NNNN.json` per frame
 /// (`report::timeline`, intervals and counters at that many cycles); with
 /// `dram_trace`, every frame's DRAM requests appended to it in frame order
-/// (`report::dram_trace`; the caller finishes it).
+/// (`report::dram_trace`; the caller finishes it). FLIP is scored only
+/// with `flip`.
 pub fn run_simulate(
     trace: &Trace,
     cfg: &EngineConfig,
+    flip: bool,
     out: &Path,
     timeline: Option<u64>,
     dram_trace: Option<&mut DramTraceWriter>,
 ) -> anyhow::Result<SimulateRun> {
     let bar = crate::progress::bar(trace.derived.len() as u64, "simulate");
-    let r = measure(trace, cfg, Some(out), &bar, timeline, dram_trace)?;
+    let r = measure(trace, cfg, flip, Some(out), &bar, timeline, dram_trace)?;
     bar.finish_and_clear();
     Ok(r)
 }
 
 /// Run `trace` on the hardware model configured by `cfg` beside the golden
 /// model and build the report; with `out`, also write the frame files and
-/// `report.json` there. `bar` advances once per frame.
+/// `report.json` there (FLIP only with `flip`). `bar` advances once per
+/// frame.
 pub fn measure_hardware(
     trace: &Trace,
     cfg: &EngineConfig,
+    flip: bool,
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<SimulateRun> {
-    measure(trace, cfg, out, bar, None, None)
+    measure(trace, cfg, flip, out, bar, None, None)
 }
 
 fn measure(
     trace: &Trace,
     cfg: &EngineConfig,
+    flip: bool,
     out: Option<&Path>,
     bar: &indicatif::ProgressBar,
     timeline: Option<u64>,
@@ -194,7 +199,7 @@ fn measure(
             exr
         };
         let (vs_truth, written) = rayon::join(
-            || super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, out),
+            || super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, flip, out),
             || out.map(write).transpose(),
         );
         let vs_truth = vs_truth?;
@@ -221,7 +226,7 @@ fn measure(
         refs.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
-    let mut report = SimulateReport::new(trace.manifest.display().to_string(), &cfg, from_trace, frames);
+    let mut report = SimulateReport::new(trace.manifest.display().to_string(), flip, &cfg, from_trace, frames);
     report.ignored_layers = trace.layer_kinds().into_iter().map(String::from).collect();
     report.budget = crate::report::budget::to_json(&budget_of(&cfg, trace));
     let mut summary = summary(&report, &cfg, trace);

@@ -65,7 +65,8 @@ pub fn cache_tiles(bytes: u64, tile: u32) -> u64 {
 pub fn evaluate(stage: Stage, trace: &Trace, cfg: &EngineConfig) -> anyhow::Result<Candidate> {
     debug_assert_eq!(cfg.supersample, trace.display.supersample);
     let quiet = indicatif::ProgressBar::hidden();
-    let r = measure_hardware(trace, cfg, None, &quiet)?;
+    // Sizing reads PSNR and SSIM only: no FLIP.
+    let r = measure_hardware(trace, cfg, false, None, &quiet)?;
     let m = Metrics::from_hardware_report(&r.report);
     let capacity_misses = r.report.total.counters.dest_cache.misses_capacity;
     let c = Candidate {

@@ -118,6 +118,7 @@ fn group_runs(spec: &Spec, g: &Group, ss: u32) -> Result<Vec<PointRun>, String> 
                                 hole_fill: fill.clone(),
                                 golden: Some(cfg),
                                 runs: spec.runs,
+                                flip: spec.flip,
                             });
                         }
                     } else {
@@ -126,6 +127,7 @@ fn group_runs(spec: &Spec, g: &Group, ss: u32) -> Result<Vec<PointRun>, String> 
                             hole_fill: fill.clone(),
                             golden: None,
                             runs: spec.runs,
+                            flip: spec.flip,
                         });
                     }
                 }
@@ -142,7 +144,7 @@ fn group_runs(spec: &Spec, g: &Group, ss: u32) -> Result<Vec<PointRun>, String> 
                                     describe(&all)
                                 )
                             })?;
-                            out.push(PointRun::Hardware { preset: preset.clone(), config });
+                            out.push(PointRun::Hardware { preset: preset.clone(), config, flip: spec.flip });
                         }
                     }
                 }

@@ -33,6 +33,8 @@ pub enum PointRun {
         golden: Option<GoldenConfig>,
         /// Timed runs per frame (host time = median).
         runs: u32,
+        /// Score FLIP.
+        flip: bool,
     },
     /// The cycle-level hardware model.
     Hardware {
@@ -40,6 +42,8 @@ pub enum PointRun {
         preset: String,
         /// The configuration (`supersample` = the trace's).
         config: EngineConfig,
+        /// Score FLIP.
+        flip: bool,
     },
 }
 
@@ -63,7 +67,7 @@ impl PointRun {
 
     /// The canonical description of the point, hashed for its file name:
     /// the trace's content identity and frames used, the method, hole
-    /// fill, runs, and the complete golden or hardware configuration (so
+    /// fill, runs, whether FLIP is scored, and the complete golden or hardware configuration (so
     /// a knob given at its default value is the same point).
     pub fn key(&self, trace_identity: &str, frames: usize) -> String {
         let (golden, hardware, runs) = match self {
@@ -74,8 +78,11 @@ impl PointRun {
             ),
             PointRun::Hardware { config, .. } => (Value::Null, to_json(config), Value::Null),
         };
+        let flip = match self {
+            PointRun::Method { flip, .. } | PointRun::Hardware { flip, .. } => *flip,
+        };
         let k = json!({
-            "format": 1,
+            "format": 2,
             "trace": trace_identity,
             "frames": frames,
             "method": self.method(),
@@ -83,6 +90,7 @@ impl PointRun {
             "runs": runs,
             "golden": golden,
             "hardware": hardware,
+            "flip": flip,
         });
         serde_json::to_string(&k).expect("key serializes")
     }
@@ -326,7 +334,7 @@ pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow
     let staged = images.map(|d| crate::io_util::OutDir::create(d, true, &[&trace.manifest])).transpose()?;
     let images = staged.as_ref().map(|s| s.path());
     let m = match run {
-        PointRun::Method { reconstruction, hole_fill, golden, runs } => {
+        PointRun::Method { reconstruction, hole_fill, golden, runs, flip } => {
             let mut rec = methods::reconstruction(reconstruction)?;
             if let Some(cfg) = golden {
                 rec = rec
@@ -334,11 +342,11 @@ pub fn run_point(run: &PointRun, trace: &Trace, images: Option<&Path>) -> anyhow
                     .with_context(|| format!("method {reconstruction} does not take golden knobs"))?;
             }
             let fill = methods::hole_fill(hole_fill)?;
-            let r = measure_method(trace, rec.as_ref(), fill.as_ref(), *runs, images, &quiet)?;
+            let r = measure_method(trace, rec.as_ref(), fill.as_ref(), *runs, *flip, images, &quiet)?;
             Metrics::from_method_report(&r.report)
         }
-        PointRun::Hardware { config, .. } => {
-            let r = measure_hardware(trace, config, images, &quiet)?;
+        PointRun::Hardware { config, flip, .. } => {
+            let r = measure_hardware(trace, config, *flip, images, &quiet)?;
             let mut m = Metrics::from_hardware_report(&r.report);
             if !r.vs_float_luma_db.is_empty() {
                 // Identical frames (+inf) are left out of the mean, as
@@ -382,12 +390,16 @@ mod tests {
             hole_fill: "f".into(),
             golden: Some(GoldenConfig::default()),
             runs: 1,
+            flip: false,
         };
         assert_eq!(a.key("t", 2), a.clone().key("t", 2));
         assert_ne!(a.key("t", 2), a.key("u", 2));
         assert_ne!(a.key("t", 2), a.key("t", 1));
-        let h = PointRun::Hardware { preset: "mark1998".into(), config: EngineConfig::default() };
+        let h = PointRun::Hardware { preset: "mark1998".into(), config: EngineConfig::default(), flip: false };
         assert!(h.key("t", 1).contains("\"dest_cache_bytes\":1048576"));
+        // Scoring FLIP is another point.
+        let hf = PointRun::Hardware { preset: "mark1998".into(), config: EngineConfig::default(), flip: true };
+        assert_ne!(h.key("t", 1), hf.key("t", 1));
         assert_eq!(h.hole_fill(), "");
     }
 }

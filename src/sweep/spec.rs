@@ -4,7 +4,7 @@
 //! ([`SpecError`]).
 //!
 //! Rules:
-//! 1. Top level: `name`, `runs`, `images`, and either the group keys
+//! 1. Top level: `name`, `runs`, `images`, `flip`, and either the group keys
 //!    (`traces`, `methods`, `hole_fills`, `[golden]`, `[hardware]`) for one
 //!    group, or `[[sweep]]` tables, each a group. The sweep is the union of
 //!    the groups' points.
@@ -33,6 +33,9 @@ pub struct Spec {
     pub runs: u32,
     /// Write each point's frames, heat-maps and report under `DIR/images/`.
     pub images: bool,
+    /// Score FLIP at every point (`flip_mean`, `flip_mean_common`; default
+    /// false, the columns empty).
+    pub flip: bool,
     /// The groups; points are the union of theirs.
     pub groups: Vec<Group>,
 }
@@ -125,7 +128,7 @@ pub enum EntrySource {
     },
 }
 
-const GLOBAL_KEYS: &[&str] = &["name", "runs", "images"];
+const GLOBAL_KEYS: &[&str] = &["name", "runs", "images", "flip"];
 const GROUP_KEYS: &[&str] = &["traces", "methods", "hole_fills", "golden", "hardware"];
 
 struct Parser<'a> {
@@ -210,6 +213,12 @@ impl Parser<'_> {
                 .as_bool()
                 .ok_or_else(|| self.err(&top.key("images"), format!("expected true or false, got {}", describe(v))))?,
         };
+        let flip = match t.get("flip") {
+            None => false,
+            Some(v) => v
+                .as_bool()
+                .ok_or_else(|| self.err(&top.key("flip"), format!("expected true or false, got {}", describe(v))))?,
+        };
         let groups = if let Some(sweeps) = t.get("sweep") {
             if let Some(k) = t.keys().find(|k| GROUP_KEYS.contains(&k.as_str())) {
                 return Err(self.err(
@@ -233,7 +242,7 @@ impl Parser<'_> {
             self.unknown_keys(t, &top, &[GLOBAL_KEYS, GROUP_KEYS, &["sweep"]].concat())?;
             vec![self.group(t, top)?]
         };
-        Ok(Spec { file: file.to_path_buf(), text: String::new(), name, runs, images, groups })
+        Ok(Spec { file: file.to_path_buf(), text: String::new(), name, runs, images, flip, groups })
     }
 
     fn unknown_keys(&self, t: &toml::Table, at: &KeyPath, allowed: &[&str]) -> Result<(), SpecError> {
@@ -511,7 +520,7 @@ dest_cache_bytes = [65536, 131072]
 "#,
         )
         .unwrap();
-        assert_eq!((s.name.as_str(), s.runs, s.images), ("test", 1, false));
+        assert_eq!((s.name.as_str(), s.runs, s.images, s.flip), ("test", 1, false, false));
         let g = &s.groups[0];
         assert_eq!(g.methods.last(), Some(&MethodChoice::Hardware));
         assert_eq!(g.methods.len(), crate::methods::reconstructions().len() + 1);
