@@ -70,38 +70,48 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
     let mut warper = Warper::new();
     let bar = crate::progress::bar(trace.derived.len() as u64, "golden");
     for (k, f) in trace.derived.iter().enumerate() {
-        // The references not yet prepared, loaded and prepared in parallel
-        // (each alone: the same planes whatever the thread count).
-        let mut missing: Vec<usize> = f.references.iter().copied().filter(|r| !prepared.contains_key(r)).collect();
-        missing.sort_unstable();
-        missing.dedup();
-        let loaded: Vec<anyhow::Result<(usize, String, PreparedReference, f64)>> = missing
-            .par_iter()
-            .map(|&r| {
-                let loaded = trace.load_reference(r)?;
+        // The frame's ground truth loads beside its references and warp
+        // (another core's work; a one-reference frame leaves it free).
+        let (truth, warped) = rayon::join(
+            || trace.load_truth(k),
+            || -> anyhow::Result<(GoldenFrame, f64)> {
+                // The references not yet prepared, loaded and prepared in
+                // parallel (each alone: the same planes whatever the thread
+                // count).
+                let mut missing: Vec<usize> =
+                    f.references.iter().copied().filter(|r| !prepared.contains_key(r)).collect();
+                missing.sort_unstable();
+                missing.dedup();
+                let loaded: Vec<anyhow::Result<(usize, String, PreparedReference, f64)>> = missing
+                    .par_iter()
+                    .map(|&r| {
+                        let loaded = trace.load_reference(r)?;
+                        let t = Instant::now();
+                        let p = prepare_reference(&loaded.samples, ss, cfg);
+                        Ok((r, loaded.slopes.name().to_string(), p, t.elapsed().as_secs_f64() * 1e3))
+                    })
+                    .collect();
+                for l in loaded {
+                    let (r, name, p, ms) = l?;
+                    slopes[r] = Some(name);
+                    prepared.insert(r, p);
+                    prepare_ms += ms;
+                }
+                let cmd = trace.frame_commands(k);
+                let refs: Vec<&PreparedReference> = f.references.iter().map(|r| &prepared[r]).collect();
                 let t = Instant::now();
-                let p = prepare_reference(&loaded.samples, ss, cfg);
-                Ok((r, loaded.slopes.name().to_string(), p, t.elapsed().as_secs_f64() * 1e3))
-            })
-            .collect();
-        for l in loaded {
-            let (r, name, p, ms) = l?;
-            slopes[r] = Some(name);
-            prepared.insert(r, p);
-            prepare_ms += ms;
-        }
-        let cmd = trace.frame_commands(k);
-        let refs: Vec<&PreparedReference> = f.references.iter().map(|r| &prepared[r]).collect();
-        let t = Instant::now();
-        let frame = warper.warp_frame(&cmd, &refs, cfg);
-        let host_ms = t.elapsed().as_secs_f64() * 1e3;
+                let frame = warper.warp_frame(&cmd, &refs, cfg);
+                Ok((frame, t.elapsed().as_secs_f64() * 1e3))
+            },
+        );
+        let (frame, host_ms) = warped?;
+        let truth = truth?;
         // References this frame was the last to use go before scoring and
         // writing, which need memory of their own.
-        drop(refs);
         prepared.retain(|r, _| last_use[r] > k);
         // Scoring (with the heat-map) beside writing the frame's files.
         let (quality, written) = rayon::join(
-            || super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, flip, Some(out)),
+            || super::score::score_frame(truth.as_ref(), k, (w, h), &frame.pixels, &frame.covered, flip, Some(out)),
             || write_frame_files(out, k, &frame, w, h, ss),
         );
         let quality = quality?;

@@ -117,7 +117,9 @@ pub fn measure_method(
             }
         }
         let frame = frame.expect("runs >= 1");
-        let quality = super::score::score_frame(trace, k, (w, h), &frame.pixels, &frame.covered, flip, out)?;
+        // The truth loads after the timed runs, which have the core alone.
+        let truth = trace.load_truth(k)?;
+        let quality = super::score::score_frame(truth.as_ref(), k, (w, h), &frame.pixels, &frame.covered, flip, out)?;
         if let Some(out) = out {
             crate::picture::write_png(&out.join(format!("frame-{k:04}.png")), w, h, &frame.pixels)?;
             write_hole_mask(

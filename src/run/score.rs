@@ -9,19 +9,20 @@
 
 use crate::metrics::{MetricInput, Quality, common_mask, evaluate};
 use crate::report::images::write_diff_heatmap;
-use crate::trace::Trace;
+use crate::trace::TruthImage;
 use bitvec::vec::BitVec;
 use std::path::Path;
 
 /// Difference (8-bit sRGB codes) at which the heat-map saturates.
 pub const HEATMAP_FULL_SCALE: f64 = 64.0;
 
-/// Score derived frame `k` of `trace`, a `w x h` image `pixels` whose
-/// `covered` bits mark pixels covered by real samples, against the trace's
-/// truth (FLIP only with `flip`, [`crate::metrics::MetricInput::flip`]);
-/// with `out`, also write `out/diff-<k>.png`.
+/// Score derived frame `k`, a `w x h` image `pixels` whose `covered` bits
+/// mark pixels covered by real samples, against its `truth`
+/// ([`crate::trace::Trace::load_truth`]; FLIP only with `flip`,
+/// [`crate::metrics::MetricInput::flip`]); with `out`, also write
+/// `out/diff-<k>.png`, beside the metrics.
 pub fn score_frame(
-    trace: &Trace,
+    truth: Option<&TruthImage>,
     k: usize,
     (w, h): (u32, u32),
     pixels: &[[f32; 3]],
@@ -29,29 +30,37 @@ pub fn score_frame(
     flip: bool,
     out: Option<&Path>,
 ) -> anyhow::Result<Option<Quality>> {
-    let Some(truth) = trace.load_truth(k)? else { return Ok(None) };
+    let Some(truth) = truth else { return Ok(None) };
     let common = common_mask(&truth.known, truth.seen.as_ref(), &[covered])?;
-    let q = evaluate(&MetricInput {
-        width: w,
-        height: h,
-        image: pixels,
-        truth: &truth.colour,
-        known: &truth.known,
-        covered: Some(covered),
-        common: Some(&common),
-        seen: truth.seen.as_ref(),
-        flip,
-    })?;
-    if let Some(out) = out {
-        write_diff_heatmap(
-            &out.join(format!("diff-{k:04}.png")),
-            w,
-            h,
-            pixels,
-            &truth.colour,
-            &truth.known,
-            HEATMAP_FULL_SCALE,
-        )?;
-    }
-    Ok(Some(q))
+    let (q, heatmap) = rayon::join(
+        || {
+            evaluate(&MetricInput {
+                width: w,
+                height: h,
+                image: pixels,
+                truth: &truth.colour,
+                known: &truth.known,
+                covered: Some(covered),
+                common: Some(&common),
+                seen: truth.seen.as_ref(),
+                flip,
+            })
+        },
+        || {
+            out.map(|out| {
+                write_diff_heatmap(
+                    &out.join(format!("diff-{k:04}.png")),
+                    w,
+                    h,
+                    pixels,
+                    &truth.colour,
+                    &truth.known,
+                    HEATMAP_FULL_SCALE,
+                )
+            })
+            .transpose()
+        },
+    );
+    heatmap?;
+    Ok(Some(q?))
 }

@@ -199,7 +199,10 @@ fn measure(
             exr
         };
         let (vs_truth, written) = rayon::join(
-            || super::score::score_frame(trace, k, (w, h), &hw.pixels, &hw.covered, flip, out),
+            || {
+                let truth = trace.load_truth(k)?;
+                super::score::score_frame(truth.as_ref(), k, (w, h), &hw.pixels, &hw.covered, flip, out)
+            },
             || out.map(write).transpose(),
         );
         let vs_truth = vs_truth?;
