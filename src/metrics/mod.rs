@@ -49,6 +49,7 @@ pub mod psnr;
 pub mod ssim;
 
 use bitvec::vec::BitVec;
+use rayon::prelude::*;
 use serde::Serializer;
 
 use crate::picture::linear_to_srgb8;
@@ -256,14 +257,19 @@ pub fn serialize_finite_or_null<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S
 /// Both images as 8-bit sRGB codes, the image's unknown pixels replaced by
 /// the truth's (see the module documentation).
 pub(crate) fn encode_pair(input: &MetricInput) -> (Vec<[u8; 3]>, Vec<[u8; 3]>) {
-    let truth: Vec<[u8; 3]> = input.truth.iter().map(|c| c.map(linear_to_srgb8)).collect();
+    let truth: Vec<[u8; 3]> = input.truth.par_iter().map(|c| c.map(linear_to_srgb8)).collect();
     let image = outside_as_truth(input.image, &truth, input.known);
     (image, truth)
 }
 
 /// `image` as 8-bit sRGB codes, taking `truth`'s codes where `mask` is clear.
 fn outside_as_truth(image: &[[f32; 3]], truth: &[[u8; 3]], mask: &BitVec) -> Vec<[u8; 3]> {
-    image.iter().zip(truth).enumerate().map(|(i, (c, t))| if mask[i] { c.map(linear_to_srgb8) } else { *t }).collect()
+    image
+        .par_iter()
+        .zip(truth)
+        .enumerate()
+        .map(|(i, (c, t))| if mask[i] { c.map(linear_to_srgb8) } else { *t })
+        .collect()
 }
 
 fn check(input: &MetricInput) -> Result<usize, MetricError> {
@@ -333,8 +339,8 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     };
 
     let (image8, truth8) = encode_pair(input);
-    let image_luma: Vec<f64> = image8.iter().map(|&c| psnr::luma(c)).collect();
-    let truth_luma: Vec<f64> = truth8.iter().map(|&c| psnr::luma(c)).collect();
+    let luma_of = |codes: &[[u8; 3]]| -> Vec<f64> { codes.par_iter().map(|&c| psnr::luma(c)).collect() };
+    let (image_luma, truth_luma) = rayon::join(|| luma_of(&image8), || luma_of(&truth8));
     let (w, h) = (input.width as usize, input.height as usize);
     // The neighbourhood metrics on the common mask see the truth outside it,
     // as they see it on unknown pixels; a mask of every known pixel is the
@@ -342,49 +348,53 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
     let separate_common = common != *known;
     // common ⊆ known, so image8 holds the image's codes on it.
     let common8: Vec<[u8; 3]> = if separate_common {
-        image8.iter().zip(&truth8).enumerate().map(|(i, (c, t))| if common[i] { *c } else { *t }).collect()
+        image8.par_iter().zip(&truth8).enumerate().map(|(i, (c, t))| if common[i] { *c } else { *t }).collect()
     } else {
         Vec::new()
     };
-    let common_luma: Vec<f64> = common8.iter().map(|&c| psnr::luma(c)).collect();
+    let common_luma = luma_of(&common8);
     // The two FLIPs (the most expensive, one thread each) beside each other
     // and beside the rest; each score is computed once, whatever the
     // thread count, so the scores do not depend on it.
-    let ((flip_mean, flip_c), ((ssim_luma, ssim_c), delta_e20_fraction)) = rayon::join(
-        || {
-            rayon::join(
-                || match input.flip {
-                    true => flip::flip_mean(input.width, input.height, &image8, &truth8, known),
-                    false => f64::NAN,
-                },
-                || {
-                    (separate_common && input.flip)
-                        .then(|| flip::flip_mean(input.width, input.height, &common8, &truth8, &common))
-                },
-            )
-        },
-        || {
-            rayon::join(
-                || {
-                    rayon::join(
-                        || ssim::ssim_mean(w, h, &image_luma, &truth_luma, known),
-                        || separate_common.then(|| ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common)),
-                    )
-                },
-                || delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD),
-            )
-        },
-    );
-    let psnr_luma_db = psnr::psnr_plane(&image_luma, &truth_luma, known);
-    let psnr_rgb_db = psnr::psnr_rgb(&image8, &truth8, known);
+    let flips = || {
+        rayon::join(
+            || match input.flip {
+                true => flip::flip_mean(input.width, input.height, &image8, &truth8, known),
+                false => f64::NAN,
+            },
+            || {
+                (separate_common && input.flip)
+                    .then(|| flip::flip_mean(input.width, input.height, &common8, &truth8, &common))
+            },
+        )
+    };
+    let psnrs = || {
+        [
+            psnr::psnr_plane(&image_luma, &truth_luma, known),
+            psnr::psnr_rgb(&image8, &truth8, known),
+            psnr::psnr_rgb(&image8, &truth8, &covered_known),
+            psnr::psnr_rgb(&image8, &truth8, &never_seen),
+            if separate_common { psnr::psnr_rgb(&common8, &truth8, &common) } else { f64::NAN },
+        ]
+    };
+    let ssims = || {
+        rayon::join(
+            || ssim::ssim_mean(w, h, &image_luma, &truth_luma, known),
+            || separate_common.then(|| ssim::ssim_mean(w, h, &common_luma, &truth_luma, &common)),
+        )
+    };
+    let delta_e = || delta_e::delta_e_fraction(&image8, &truth8, known, delta_e::DELTA_E_THRESHOLD);
+    let (((flip_mean, flip_c), psnrs), ((ssim_luma, ssim_c), delta_e20_fraction)) =
+        rayon::join(|| rayon::join(flips, psnrs), || rayon::join(ssims, delta_e));
+    let [psnr_luma_db, psnr_rgb_db, psnr_rgb_covered_db, psnr_rgb_never_seen_db, psnr_common] = psnrs;
     let (psnr_rgb_common_db, ssim_luma_common, flip_mean_common) = match ssim_c {
-        Some(ssim_c) => (psnr::psnr_rgb(&common8, &truth8, &common), ssim_c, flip_c.unwrap_or(f64::NAN)),
+        Some(ssim_c) => (psnr_common, ssim_c, flip_c.unwrap_or(f64::NAN)),
         None => (psnr_rgb_db, ssim_luma, flip_mean),
     };
 
     Ok(Quality {
         psnr_rgb_db,
-        psnr_rgb_covered_db: psnr::psnr_rgb(&image8, &truth8, &covered_known),
+        psnr_rgb_covered_db,
         psnr_luma_db,
         ssim_luma,
         flip_mean,
@@ -393,7 +403,7 @@ pub fn evaluate(input: &MetricInput) -> Result<Quality, MetricError> {
         psnr_rgb_common_db,
         ssim_luma_common,
         flip_mean_common,
-        psnr_rgb_never_seen_db: psnr::psnr_rgb(&image8, &truth8, &never_seen),
+        psnr_rgb_never_seen_db,
         excluded_pixels: (n as u64) - scored_pixels,
         covered_pixels,
         scored_pixels,
