@@ -5,7 +5,7 @@
 //! it the same way, so identical engines write identical files; run-length
 //! encoded (`ExrPacking::Fast`), lossless.
 
-use crate::trace::{ExrPacking, SlopeSource, write_reference_image_packed};
+use crate::trace::{ExrPacking, SamplePlanes, write_sample_planes};
 use bitvec::vec::BitVec;
 use postwarp_rtl::SampleImage;
 use std::path::Path;
@@ -45,6 +45,15 @@ pub fn derived_samples(p: &Planes) -> SampleImage {
 
 /// Write `p` to `path` (module rule).
 pub fn write_frame_exr(path: &Path, p: &Planes) -> anyhow::Result<()> {
-    write_reference_image_packed(path, &derived_samples(p), SlopeSource::Exact, ExrPacking::Fast)?;
+    // The planes of `derived_samples(p)`, read in place.
+    let planes = SamplePlanes {
+        size: (p.width, p.height),
+        colour: p.colour,
+        valid: p.real,
+        z: |i| 1.0 / p.inv_z[i],
+        slopes: Some(p.slopes),
+        id: |i| if p.real[i] { p.source[i] as u32 + 1 } else { 0 },
+    };
+    write_sample_planes(path, &planes, ExrPacking::Fast)?;
     Ok(())
 }

@@ -154,23 +154,59 @@ pub fn write_reference_image_packed(
     slopes: SlopeSource,
     packing: ExrPacking,
 ) -> Result<(), TraceError> {
-    let mut list: Vec<AnyChannel<FlatSamples>> = rgb_channels(&img.colour);
+    let planes = SamplePlanes {
+        size: (img.width, img.height),
+        colour: &img.colour,
+        valid: &img.valid,
+        z: |i| img.z[i],
+        slopes: (slopes == SlopeSource::Exact).then_some(&img.inv_z_slopes[..]),
+        id: |i| img.object_id[i],
+    };
+    write_sample_planes(path, &planes, packing)
+}
+
+/// A reference image's planes, some as functions of the sample index, for
+/// [`write_sample_planes`] (a derived frame's planes need no
+/// [`SampleImage`] copy).
+pub struct SamplePlanes<'a, Z: Fn(usize) -> f32, I: Fn(usize) -> u32> {
+    /// Width and height (samples).
+    pub size: (u32, u32),
+    /// Linear RGB per sample.
+    pub colour: &'a [[f32; 3]],
+    /// Set where a surface is (Z and slopes are written as 0 elsewhere).
+    pub valid: &'a BitVec,
+    /// Z of sample `i` where valid.
+    pub z: Z,
+    /// 1/Z slopes per sample, when exact (`None`: no slope channels).
+    pub slopes: Option<&'a [[f32; 2]]>,
+    /// Object id of sample `i` (the channel is left out when every id is 0).
+    pub id: I,
+}
+
+/// Write `p` as [`write_reference_image_packed`] writes a [`SampleImage`]
+/// of the same values: the same channels, the same bytes.
+pub fn write_sample_planes<Z: Fn(usize) -> f32, I: Fn(usize) -> u32>(
+    path: &Path,
+    p: &SamplePlanes<'_, Z, I>,
+    packing: ExrPacking,
+) -> Result<(), TraceError> {
+    let n = p.colour.len();
+    let mut list: Vec<AnyChannel<FlatSamples>> = rgb_channels(p.colour);
     let masked =
-        |v: &[f32]| -> Vec<f32> { v.iter().enumerate().map(|(i, &z)| if img.valid[i] { z } else { 0.0 }).collect() };
-    list.push(AnyChannel::new("Z", FlatSamples::F32(masked(&img.z))));
-    if slopes == SlopeSource::Exact {
-        let dx: Vec<f32> = img.inv_z_slopes.iter().map(|s| s[0]).collect();
-        let dy: Vec<f32> = img.inv_z_slopes.iter().map(|s| s[1]).collect();
-        list.push(AnyChannel::new("dinvz_dx", FlatSamples::F32(masked(&dx))));
-        list.push(AnyChannel::new("dinvz_dy", FlatSamples::F32(masked(&dy))));
+        |f: &dyn Fn(usize) -> f32| -> Vec<f32> { (0..n).map(|i| if p.valid[i] { f(i) } else { 0.0 }).collect() };
+    list.push(AnyChannel::new("Z", FlatSamples::F32(masked(&p.z))));
+    if let Some(s) = p.slopes {
+        list.push(AnyChannel::new("dinvz_dx", FlatSamples::F32(masked(&|i| s[i][0]))));
+        list.push(AnyChannel::new("dinvz_dy", FlatSamples::F32(masked(&|i| s[i][1]))));
     }
-    if img.object_id.iter().any(|&i| i != 0) {
-        list.push(AnyChannel::new("id", FlatSamples::U32(img.object_id.clone())));
+    let id: Vec<u32> = (0..n).map(&p.id).collect();
+    if id.iter().any(|&i| i != 0) {
+        list.push(AnyChannel::new("id", FlatSamples::U32(id)));
     }
-    if img.valid.not_any() || !img.valid.all() {
-        list.push(mask_channel(&img.valid));
+    if p.valid.not_any() || !p.valid.all() {
+        list.push(mask_channel(p.valid));
     }
-    write_channels(path, (img.width, img.height), list, packing)
+    write_channels(path, p.size, list, packing)
 }
 
 /// Write a ground-truth image (`valid` only if some pixel is unknown).

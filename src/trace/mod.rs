@@ -17,8 +17,8 @@ mod write;
 
 pub use error::TraceError;
 pub use exr_io::{
-    ExrPacking, decode_reference_image, decode_truth_image, read_reference_image, read_truth_image,
-    write_reference_image, write_reference_image_packed, write_truth_image,
+    ExrPacking, SamplePlanes, decode_reference_image, decode_truth_image, read_reference_image, read_truth_image,
+    write_reference_image, write_reference_image_packed, write_sample_planes, write_truth_image,
 };
 pub use parse::parse_manifest;
 pub use write::{TraceWriter, format_manifest};
