@@ -106,6 +106,11 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
         );
         let (frame, host_ms) = warped?;
         let truth = truth?;
+        // The warp's working buffers (a kernel per reference sample) serve
+        // the next frame; after the last they go before scoring and writing.
+        if k + 1 == trace.derived.len() {
+            warper = Warper::new();
+        }
         // References this frame was the last to use go before scoring and
         // writing, which need memory of their own.
         prepared.retain(|r, _| last_use[r] > k);
