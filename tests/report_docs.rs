@@ -144,9 +144,11 @@ fn reports_round_trip_and_newer_versions_are_refused() {
     assert!(e.contains(&format!("x/report.json: report_version {next} was written by a newer postwarp")), "{e}");
     // Version 4 (before FLIP was optional) always scored it.
     assert!(!s.flip, "simulate without --flip");
-    let v4 = text
-        .replacen(&format!("\"report_version\": {now}"), "\"report_version\": 4", 1)
-        .replacen("\"flip\": false,\n", "", 1);
+    let v4 = text.replacen(&format!("\"report_version\": {now}"), "\"report_version\": 4", 1).replacen(
+        "\"flip\": false,\n",
+        "",
+        1,
+    );
     assert!(!v4.contains("\"flip\""), "the key removed");
     let Report::Simulate(s4) = postwarp::report::parse(&v4, Path::new("v4.json")).unwrap() else { panic!() };
     assert!(s4.flip);
