@@ -71,8 +71,8 @@ pub fn srgb8_to_lab(c: [u8; 3]) -> [f64; 3] {
 
 /// [`srgb8_to_lab`] with [`cbrt_fast`].
 #[inline(always)]
-fn srgb8_to_lab_fast(c: [u8; 3]) -> [f64; 3] {
-    xyz_to_lab_with(linear_to_xyz(c.map(|v| srgb_to_linear(v) as f64)), cbrt_fast)
+fn srgb8_to_lab_fast(c: [u8; 3], cbrt: impl Fn(f64) -> f64) -> [f64; 3] {
+    xyz_to_lab_with(linear_to_xyz(c.map(|v| srgb_to_linear(v) as f64)), cbrt)
 }
 
 /// t^(1/3) for t > 0: Kahan's start (the exponent divided by three, within
@@ -90,16 +90,19 @@ pub fn cbrt_fast(t: f64) -> f64 {
 }
 
 /// Relative band around threshold² inside which [`delta_e_fraction`]
-/// decides with `f64::cbrt` instead of [`cbrt_fast`]: ΔE² computed with
-/// cube roots 1e-12 off moves by less than 1e-8 of itself (L\*, a\*, b\*
-/// are at most 116, 500 and 200 times a cube root), far inside it.
+/// decides with `f64::cbrt` instead of [`cbrt_fast`]. With cube roots at
+/// most 1e-12 (relative) off, and cube roots at most ≈1.03 here, L\*, a\*
+/// and b\* (116, 500 and 200 times a cube root or a difference of two)
+/// move by at most 1.2e-9 each, so ΔE² by at most about 2·ΔE·2e-9
+/// (absolute): inside the band for every threshold, 1e-6·max(1, thr²).
 pub const GUARD: f64 = 1e-6;
 
 /// Whether ΔE76 of `a` and `b` exceeds `threshold` (`thr2` = threshold²),
-/// as [`delta_e76`] of [`srgb8_to_lab`] decides it.
+/// as [`delta_e76`] of [`srgb8_to_lab`] decides it, first with the cube
+/// root `cbrt` (within 1e-12 of `f64::cbrt`: [`cbrt_fast`]).
 #[inline(always)]
-fn above(a: [u8; 3], b: [u8; 3], threshold: f64, thr2: f64) -> bool {
-    let (la, lb) = (srgb8_to_lab_fast(a), srgb8_to_lab_fast(b));
+fn above(a: [u8; 3], b: [u8; 3], threshold: f64, thr2: f64, cbrt: impl Fn(f64) -> f64 + Copy) -> bool {
+    let (la, lb) = (srgb8_to_lab_fast(a, cbrt), srgb8_to_lab_fast(b, cbrt));
     let d2 = (la[0] - lb[0]).powi(2) + (la[1] - lb[1]).powi(2) + (la[2] - lb[2]).powi(2);
     if (d2 - thr2).abs() > GUARD * thr2.max(1.0) {
         d2 > thr2
@@ -129,7 +132,7 @@ pub fn delta_e_fraction(image: &[[u8; 3]], truth: &[[u8; 3]], mask: &BitVec, thr
             let r = c * CHUNK..((c + 1) * CHUNK).min(image.len());
             let (mut over, mut n) = (0u64, 0u64);
             for i in mask[r.clone()].iter_ones().map(|j| r.start + j) {
-                over += (image[i] != truth[i] && above(image[i], truth[i], threshold, thr2)) as u64;
+                over += (image[i] != truth[i] && above(image[i], truth[i], threshold, thr2, cbrt_fast)) as u64;
                 n += 1;
             }
             (over, n)
@@ -253,6 +256,38 @@ mod tests {
                 assert_eq!(delta_e_fraction(&image, &truth, &mask, thr), direct(thr), "threshold {thr}");
             }
         }
+    }
+
+    /// The guard itself: with cube roots pushed 1e-12 off either way (the
+    /// bound the fast one meets), every pixel at a threshold equal to its
+    /// own ΔE, or a hair either side, is decided as `f64::cbrt` decides it.
+    /// Without the guard about half of these would flip.
+    #[test]
+    fn the_guard_absorbs_cube_roots_off_by_the_bound() {
+        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            rng.to_le_bytes()
+        };
+        let mut flips_without_guard = 0;
+        for _ in 0..2000 {
+            let r = next();
+            let (a, b) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
+            let d = delta_e76(srgb8_to_lab(a), srgb8_to_lab(b));
+            for thr in [d, d.next_up(), d.next_down()] {
+                let exact = d > thr;
+                for off in [1.0 + 1e-12, 1.0 - 1e-12] {
+                    let cbrt = move |t: f64| t.cbrt() * off;
+                    assert_eq!(above(a, b, thr, thr * thr, cbrt), exact, "{a:?} {b:?} at {thr}");
+                    let (la, lb) = (srgb8_to_lab_fast(a, cbrt), srgb8_to_lab_fast(b, cbrt));
+                    let d2 = (la[0] - lb[0]).powi(2) + (la[1] - lb[1]).powi(2) + (la[2] - lb[2]).powi(2);
+                    flips_without_guard += ((d2 > thr * thr) != exact) as u32;
+                }
+            }
+        }
+        assert!(flips_without_guard > 100, "the test must reach the band: {flips_without_guard}");
     }
 
     #[test]

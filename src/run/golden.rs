@@ -7,7 +7,9 @@
 //!    and dropped after the last derived frame that uses it.
 //! 2. Frames run one after another on one thread, so `host_ms` is the
 //!    single-core time of `warp_frame` (reference preparation is reported
-//!    separately as `prepare_ms`).
+//!    separately as `prepare_ms`). The frame's truth decodes on another
+//!    core meanwhile (it shares the memory bus, not the core); the engine
+//!    alone is `postwarp bench`'s `engine golden` row.
 //! 3. Outputs per frame: `frame-NNNN.png` (resolved), `frame-NNNN.exr`
 //!    (derived samples in the reference-image format: colour, Z, slopes,
 //!    `valid` = real surface), `holes-NNNN.png`, and with ground truth
