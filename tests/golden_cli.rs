@@ -9,8 +9,13 @@ fn root() -> PathBuf {
 }
 
 fn golden(trace: &str, out: &Path, extra: &[&str]) -> (String, Value) {
+    run("golden", trace, out, extra)
+}
+
+/// `postwarp CMD traces/TRACE --out OUT EXTRA…`: its stdout and report.
+fn run(cmd: &str, trace: &str, out: &Path, extra: &[&str]) -> (String, Value) {
     let o = Command::new(env!("CARGO_BIN_EXE_postwarp"))
-        .arg("golden")
+        .arg(cmd)
         .arg(root().join("traces").join(trace))
         .arg("--out")
         .arg(out)
@@ -127,18 +132,7 @@ fn flip_only_when_asked() {
         .unwrap_or_else(|| panic!("a mean row in {stdout}"));
     assert_eq!(mean_row[6], "-", "the FLIP column of {mean_row:?}");
 
-    let sim = |out: &Path, extra: &[&str]| -> Value {
-        let o = Command::new(env!("CARGO_BIN_EXE_postwarp"))
-            .arg("simulate")
-            .arg(root().join("traces/occluders"))
-            .arg("--out")
-            .arg(out)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap()
-    };
+    let sim = |out: &Path, extra: &[&str]| run("simulate", "occluders", out, extra).1;
     let (a, b) = (sim(&dir.path().join("s"), &[]), sim(&dir.path().join("t"), &["--flip"]));
     assert_eq!((&a["flip"], &b["flip"]), (&Value::Bool(false), &Value::Bool(true)));
     assert!(a["mean"]["vs_truth"]["flip_mean"].is_null(), "{}", a["mean"]["vs_truth"]);

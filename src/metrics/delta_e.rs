@@ -230,21 +230,24 @@ mod tests {
     /// Pixels whose ΔE lies at the threshold are decided by `f64::cbrt`:
     /// the fraction with the fast path equals a direct count with the
     /// library's cube roots, at thresholds set to pixels' own ΔE.
-    #[test]
-    fn the_fast_count_is_the_exact_count() {
-        let mut rng = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng
-        };
-        let (image, truth): (Vec<[u8; 3]>, Vec<[u8; 3]>) = (0..40_000)
+    /// `n` pseudo-random pairs of 8-bit colours (xorshift64 from `seed`).
+    fn colour_pairs(seed: u64, n: usize) -> Vec<([u8; 3], [u8; 3])> {
+        let mut rng = seed;
+        (0..n)
             .map(|_| {
-                let a = next().to_le_bytes();
+                rng ^= rng << 13;
+                rng ^= rng >> 7;
+                rng ^= rng << 17;
+                let a = rng.to_le_bytes();
                 ([a[0], a[1], a[2]], [a[3], a[4], a[5]])
             })
-            .unzip();
+            .collect()
+    }
+
+    #[test]
+    fn the_fast_count_is_the_exact_count() {
+        let (image, truth): (Vec<[u8; 3]>, Vec<[u8; 3]>) =
+            colour_pairs(0x2545_f491_4f6c_dd1d, 40_000).into_iter().unzip();
         let mask = BitVec::repeat(true, image.len());
         let direct = |thr: f64| {
             let n = image.iter().zip(&truth).filter(|(a, b)| delta_e76(srgb8_to_lab(**a), srgb8_to_lab(**b)) > thr);
@@ -264,17 +267,8 @@ mod tests {
     /// Without the guard about half of these would flip.
     #[test]
     fn the_guard_absorbs_cube_roots_off_by_the_bound() {
-        let mut rng = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            rng.to_le_bytes()
-        };
         let mut flips_without_guard = 0;
-        for _ in 0..2000 {
-            let r = next();
-            let (a, b) = ([r[0], r[1], r[2]], [r[3], r[4], r[5]]);
+        for (a, b) in colour_pairs(0x9e37_79b9_7f4a_7c15, 2000) {
             let d = delta_e76(srgb8_to_lab(a), srgb8_to_lab(b));
             for thr in [d, d.next_up(), d.next_down()] {
                 let exact = d > thr;
