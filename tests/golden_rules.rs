@@ -141,3 +141,43 @@ fn two_references_cover_each_others_holes() {
     assert_eq!(both.stats.hole_samples + both.stats.empty_samples, 0, "{:?}", both.stats);
     assert!(both.covered.all());
 }
+
+/// `Warper::keep_buffers(false)` frees the working buffers after a frame's
+/// last warp and `Warper::trim_frames(true)` the frame's cache-only planes:
+/// every frame is the same as a fresh warper's (memory planes, pixels,
+/// counters), and a warper that freed its buffers warps the next frame the
+/// same again. A trimmed frame's cache-only planes 6–8 are empty, and a
+/// prepared reference has no `object_id` plane.
+#[test]
+fn freeing_the_working_buffers_changes_no_frame() {
+    use postwarp::golden::frame::Warper;
+    let cfg = GoldenConfig::default();
+    let layers = [background(), Layer { z: 4.0, x0: -0.4, x1: 0.1, colour: red }];
+    let refs: Vec<(Camera, SampleImage)> =
+        [-0.2, 0.3].iter().map(|&x| (at_x(24, 16, x), render(&at_x(24, 16, x), 2, &layers))).collect();
+    let cams: Vec<(usize, Camera)> = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
+    let prepared: Vec<_> = refs.iter().map(|(_, img)| prepare_reference(img, 2, &cfg)).collect();
+    assert!(prepared.iter().all(|p| p.samples.object_id.is_empty() && p.samples.colour.len() == 48 * 32));
+    let r: Vec<_> = prepared.iter().collect();
+    let mut warper = Warper::new();
+    let frames = [(true, false, 0.05), (false, true, -0.1), (true, true, 0.2), (false, false, 0.0)];
+    for (k, (keep, trim, x)) in frames.into_iter().enumerate() {
+        let cmd = FrameCommands::new(k, at_x(24, 16, x), 2, &cams);
+        let fresh = warp_frame(&cmd, &r, &cfg);
+        warper.keep_buffers(keep);
+        warper.trim_frames(trim);
+        let out = warper.warp_frame(&cmd, &r, &cfg);
+        let (a, b) = (&out.samples, &fresh.samples);
+        assert_eq!((&a.colour, &a.inv_z, &a.slopes, &a.source), (&b.colour, &b.inv_z, &b.slopes, &b.source), "{k}");
+        assert_eq!((&a.hole, &a.real, &a.fill_weight, &a.splat), (&b.hole, &b.real, &b.fill_weight, &b.splat), "{k}");
+        assert_eq!((&out.pixels, &out.covered, &out.unseen), (&fresh.pixels, &fresh.covered, &fresh.unseen));
+        assert_eq!(out.stats, fresh.stats, "frame {k}: counters");
+        assert!(out.stats.kernel_sizes.iter().flatten().sum::<u64>() > 0, "frame {k}: something was warped");
+        assert!(b.fill_colour.len() == b.len() && b.fill_distance.len() == b.len() && b.fill_valid.len() == b.len());
+        if trim {
+            assert!(a.fill_colour.is_empty() && a.fill_distance.is_empty() && a.fill_valid.is_empty(), "{k}");
+        } else {
+            assert_eq!(a, b, "frame {k}: every plane");
+        }
+    }
+}

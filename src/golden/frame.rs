@@ -163,7 +163,10 @@ pub struct GoldenFrame {
 /// A reference frame after its trip through the A-buffer.
 #[derive(Clone, Debug)]
 pub struct PreparedReference {
-    /// Samples as expanded from the A-buffer.
+    /// Samples as expanded from the A-buffer, without their `object_id`
+    /// plane (left empty): the A-buffer's merge key, which no warp reads
+    /// once the reference is converted (4 bytes per sample of a run's
+    /// peak memory, `docs/performance.md`).
     pub samples: SampleImage,
     /// A-buffer counters of the conversion.
     pub abuffer: AbufferStats,
@@ -185,6 +188,7 @@ fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
 pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
     let mut abuffer = AbufferStats::default();
     let mut samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
+    samples.object_id = Vec::new();
     let Some(f) = cfg.fixed_formats().ok().flatten() else {
         let blocks = cull::block_depth(&samples);
         let inv_z = inv_z_plane(&samples);
@@ -268,6 +272,9 @@ impl Warper {
                 d.forget_splats();
             }
         }
+        if !self.keep {
+            self.scratch = warp_aa::Scratch::default();
+        }
         let mut unseen = BitVec::repeat(false, ((d.width / ss) * (d.height / ss)) as usize);
         if cfg.hole_fill
             && cfg.fallback_fill
@@ -280,6 +287,9 @@ impl Warper {
         st.forced_merges = ab.forced_merges;
         st.hole_samples = d.hole.count_ones() as u64;
         st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
+        if self.trim {
+            d.drop_cache_planes();
+        }
         let (pixels, covered) = resolve(&d, ss);
         GoldenFrame { samples: d, pixels, covered, unseen, stats: st }
     }
@@ -335,15 +345,43 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
 
 /// The golden model with its working buffers: create one and reuse it for
 /// every frame of a run.
-#[derive(Default)]
 pub struct Warper {
     scratch: warp_aa::Scratch,
+    /// Keep the working buffers after a frame's last warp (for the next
+    /// frame), or free them before its hole-fill fallback and resolve.
+    keep: bool,
+    /// Hand frames back with their memory planes only.
+    trim: bool,
+}
+
+impl Default for Warper {
+    fn default() -> Warper {
+        Warper { scratch: warp_aa::Scratch::default(), keep: true, trim: false }
+    }
 }
 
 impl Warper {
-    /// A warper with empty buffers.
+    /// A warper with empty buffers, kept from frame to frame.
     pub fn new() -> Warper {
         Warper::default()
+    }
+
+    /// Keep the working buffers (a kernel per reference sample) after each
+    /// frame's last warp, so the next frame reuses their pages (the
+    /// default); or, for a run's last frame, free them as soon as the last
+    /// warp is done, before the frame is resolved and handed back. Values
+    /// never depend on it.
+    pub fn keep_buffers(&mut self, keep: bool) {
+        self.keep = keep;
+    }
+
+    /// Hand every frame back with its memory planes only: the cache-only
+    /// planes 6–8 are freed before the resolve
+    /// (`DestPlanes::drop_cache_planes`), for runs that only score and
+    /// write the frame (`postwarp golden`, `simulate`). Off by default: an
+    /// untrimmed frame can take further warps. Values never depend on it.
+    pub fn trim_frames(&mut self, on: bool) {
+        self.trim = on;
     }
 }
 

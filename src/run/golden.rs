@@ -70,6 +70,7 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
     let mut prepare_ms = 0.0;
     let mut frames = Vec::new();
     let mut warper = Warper::new();
+    warper.trim_frames(true);
     let bar = crate::progress::bar(trace.derived.len() as u64, "golden");
     for (k, f) in trace.derived.iter().enumerate() {
         // The frame's ground truth loads beside its references and warp
@@ -101,6 +102,9 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
                 }
                 let cmd = trace.frame_commands(k);
                 let refs: Vec<&PreparedReference> = f.references.iter().map(|r| &prepared[r]).collect();
+                // The last frame's working buffers go as soon as its last
+                // warp is done, before it is resolved, scored and written.
+                warper.keep_buffers(k + 1 < trace.derived.len());
                 let t = Instant::now();
                 let frame = warper.warp_frame(&cmd, &refs, cfg);
                 Ok((frame, t.elapsed().as_secs_f64() * 1e3))
@@ -108,11 +112,6 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
         );
         let (frame, host_ms) = warped?;
         let truth = truth?;
-        // The warp's working buffers (a kernel per reference sample) serve
-        // the next frame; after the last they go before scoring and writing.
-        if k + 1 == trace.derived.len() {
-            warper = Warper::new();
-        }
         // References this frame was the last to use go before scoring and
         // writing, which need memory of their own.
         prepared.retain(|r, _| last_use[r] > k);

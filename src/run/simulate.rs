@@ -130,6 +130,8 @@ fn measure(
     let mut refs: HashMap<usize, Refs> = HashMap::new();
     let mut warper = Warper::new();
     let mut float_warper = Warper::new();
+    warper.trim_frames(true);
+    float_warper.trim_frames(true);
     let mut vs_float_luma_db = Vec::new();
     let mut frames = Vec::new();
     for (k, f) in trace.derived.iter().enumerate() {
@@ -147,7 +149,7 @@ fn measure(
                     || prepare_reference(&loaded.samples, ss, &gcfg),
                 );
                 let float = float_gcfg.as_ref().map(|g| prepare_reference(&loaded.samples, ss, g));
-                Ok((r, (hw, golden, float)))
+                Ok((r, (hw, Some(golden), float)))
             })
             .collect();
         for l in loaded {
@@ -155,26 +157,41 @@ fn measure(
             refs.insert(r, both);
         }
         let cmd = trace.frame_commands(k);
+        // The golden model first: its working buffers (the last frame's,
+        // `Warper::keep_buffers`) and the prepared references this frame
+        // is the last to use go before the hardware model runs, so the two
+        // engines' peaks do not add up (the process's peak memory).
+        let last = k + 1 == trace.derived.len();
+        warper.keep_buffers(!last);
+        float_warper.keep_buffers(!last);
+        let golden_ref = |r: &usize| refs[r].1.as_ref().expect("golden references kept until their last frame");
+        let g_refs: Vec<&PreparedReference> = f.references.iter().map(golden_ref).collect();
+        let t = Instant::now();
+        let golden = warper.warp_frame(&cmd, &g_refs, &gcfg);
+        let golden_ms = t.elapsed().as_secs_f64() * 1e3;
+        let float = float_gcfg.as_ref().map(|g| {
+            let f_refs: Vec<&PreparedReference> = f.references.iter().filter_map(|r| refs[r].2.as_ref()).collect();
+            float_warper.warp_frame(&cmd, &f_refs, g).pixels
+        });
+        for (r, (_, golden, float)) in refs.iter_mut() {
+            if last_use[r] <= k {
+                (*golden, *float) = (None, None);
+            }
+        }
         let hw_refs: Vec<&HwReference> = f.references.iter().map(|r| &refs[r].0).collect();
-        let g_refs: Vec<&PreparedReference> = f.references.iter().map(|r| &refs[r].1).collect();
         let t = Instant::now();
         let hw = engine.run_frame(&cmd, &hw_refs);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
         if let Some(w) = dram_trace.as_deref_mut() {
             w.frame(&hw.requests, hw.stats.cycles)?;
         }
-        let t = Instant::now();
-        let golden = warper.warp_frame(&cmd, &g_refs, &gcfg);
-        let golden_ms = t.elapsed().as_secs_f64() * 1e3;
         let differing = differing_samples(&hw, &golden.samples);
         let all = BitVec::repeat(true, hw.pixels.len());
         let psnr = psnr_rgb(&pixels8(&hw.pixels), &pixels8(&golden.pixels), &all);
         let identical = differing == 0 && hw.pixels == golden.pixels;
-        if let Some(g) = &float_gcfg {
-            let f_refs: Vec<&PreparedReference> = f.references.iter().filter_map(|r| refs[r].2.as_ref()).collect();
-            let float = float_warper.warp_frame(&cmd, &f_refs, g);
+        if let Some(float) = float {
             let luma = |p: &[[f32; 3]]| -> Vec<f64> { pixels8(p).into_iter().map(luma).collect() };
-            vs_float_luma_db.push(psnr_plane(&luma(&hw.pixels), &luma(&float.pixels), &all));
+            vs_float_luma_db.push(psnr_plane(&luma(&hw.pixels), &luma(&float), &all));
         }
         // The golden frame is compared: its planes go before scoring and
         // writing allocate theirs (the process's peak memory).
@@ -250,8 +267,9 @@ fn measure(
 }
 
 /// A loaded reference: the hardware model's, the golden model's, and in
-/// fixed mode the float golden model's.
-type Refs = (HwReference, PreparedReference, Option<PreparedReference>);
+/// fixed mode the float golden model's (the golden ones dropped once
+/// their last frame is warped).
+type Refs = (HwReference, Option<PreparedReference>, Option<PreparedReference>);
 
 /// The budget of `cfg` for the frame and reference sizes of `trace`.
 fn budget_of(cfg: &EngineConfig, trace: &Trace) -> Budget {
