@@ -208,6 +208,34 @@ fn reference_bytes_by_rectangle() {
     assert_eq!(c, AbufferCounters::default());
     assert_eq!(sample_diffs(&raw.unpack(), &img), Vec::<usize>::new());
     assert_eq!(raw.bytes_in_pixels(x0, y0, x1, y1), ((x1 - x0) * (y1 - y0) * ss * ss) as u64 * RAW_SAMPLE_BYTES);
+
+    // `for_each_sample` gives what `unpack` expands, packed or raw: every
+    // sample with a surface once, with its values (some samples without).
+    let mut holed = img.clone();
+    for i in (0..holed.len()).step_by(7) {
+        holed.valid.set(i, false);
+    }
+    let mut c = AbufferCounters::default();
+    let (packed, raw) = (pack_reference(&holed, &p, &mut c), pack_reference(&holed, &hw_params(ss, 0), &mut c));
+    for (what, form) in [("packed", &packed), ("raw", &raw)] {
+        let mut seen = SampleImage::empty(img.width, img.height);
+        let mut n = 0;
+        form.for_each_sample(|i, s| {
+            assert!(!seen.valid[i], "{what}: sample {i} visited twice");
+            (seen.colour[i], seen.z[i], seen.inv_z_slopes[i], seen.object_id[i]) = (s.colour, s.z, s.slopes, s.key);
+            seen.valid.set(i, true);
+            n += 1;
+        });
+        let want = form.unpack();
+        assert_eq!(n, want.valid.count_ones(), "{what}: samples visited");
+        assert!(n > 0 && n < want.len(), "{what}: the trace has samples with and without a surface");
+        assert_eq!(seen.valid, want.valid, "{what}");
+        let differ = |i: usize| {
+            (seen.colour[i], seen.z[i], seen.inv_z_slopes[i], seen.object_id[i])
+                != (want.colour[i], want.z[i], want.inv_z_slopes[i], want.object_id[i])
+        };
+        assert_eq!(want.valid.iter_ones().filter(|&i| differ(i)).count(), 0, "{what}: values");
+    }
 }
 
 /// Sample indices where a DestFrame and golden DestPlanes differ in any bit

@@ -155,18 +155,9 @@ impl HwReference {
     }
 }
 
-/// The records of `samples`, row-major (zero where not valid), in a zeroed
-/// block: the host's allocator may then map it in huge pages, which the
+/// `n` all-zero records, allocated zeroed (row-major, zero where not
+/// valid): the host's allocator may then map them in huge pages, which the
 /// column sheets' strided reads need.
-fn records(samples: &SampleImage) -> Vec<RefSample> {
-    let mut rows = zeroed_records(samples.len());
-    for i in samples.valid.iter_ones() {
-        rows[i] = RefSample { colour: samples.colour[i], slopes: samples.inv_z_slopes[i], z: samples.z[i] };
-    }
-    rows
-}
-
-/// `n` all-zero records, allocated zeroed.
 fn zeroed_records(n: usize) -> Vec<RefSample> {
     const _: () = assert!(std::mem::size_of::<RefSample>() == 24);
     let mut words: Vec<[f32; 6]> = vec![[0.0; 6]; n];
@@ -195,59 +186,73 @@ impl HwReference {
     pub fn new(img: &SampleImage, cfg: &EngineConfig) -> HwReference {
         let mut counters = AbufferCounters::default();
         let packed = abuffer::pack_reference(img, &abuffer_params(cfg), &mut counters);
-        let mut samples = packed.unpack();
+        HwReference::from_packed(packed, counters, cfg)
+    }
+
+    /// A reference already packed with this configuration's A-buffer
+    /// parameters (`abuffer::pack_reference` with [`abuffer_params`];
+    /// `counters` are the packer's), expanded into the records the units
+    /// read: what [`HwReference::new`] does after packing, so a caller can
+    /// pack a loaded reference, let the loaded image go, and expand later.
+    pub fn from_packed(packed: PackedReference, counters: AbufferCounters, cfg: &EngineConfig) -> HwReference {
         let fixed = cfg.fixed_formats().ok().flatten();
-        let fetch_saturations = fixed.as_ref().map_or(0, |f| quantise_expanded(&mut samples, f));
         let ref_inv_z = fixed.as_ref().map(|f| f.ref_inv_z);
-        let depth = match ref_inv_z {
-            None => CoarseDepth::new(&samples),
-            Some(f) => CoarseDepth::with_inv_z(&samples, |i| f.quantise(1.0 / samples.z[i] as f64).0),
-        };
-        let w = samples.width as usize;
-        let grid = Grid::new(samples.width, samples.height);
+        let (w, h) = (packed.width(), packed.height());
+        let grid = Grid::new(w, h);
         let mut valid_tiles = vec![0u64; grid.len() / 64];
-        for i in samples.valid.iter_ones() {
-            let gi = grid.index((i % w) as u32, (i / w) as u32);
+        let mut depth = CoarseDepth::empty(w, h);
+        let mut recs = zeroed_records(w as usize * h as usize);
+        let mut sat = 0u32;
+        // Straight from the packed form: the expanded image is never held
+        // whole (it was the peak of a reference's conversion).
+        packed.for_each_sample(|i, s| {
+            let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
+            let mut rec = RefSample { colour: s.colour, slopes: s.slopes, z: s.z };
+            let iz = match &fixed {
+                None => 1.0 / rec.z as f64,
+                Some(f) => match quantise_expanded(&mut rec, x, y, f, &mut sat) {
+                    Some(iz) => iz,
+                    None => return,
+                },
+            };
+            depth.add(x, y, iz, rec.slopes);
+            recs[i] = rec;
+            let gi = grid.index(x, y);
             valid_tiles[gi >> 6] |= 1 << (gi & 63);
-        }
+        });
         HwReference {
             packed,
-            width: samples.width,
-            height: samples.height,
+            width: w,
+            height: h,
             depth,
             counters,
-            recs: records(&samples),
+            recs,
             grid,
             valid_tiles,
             ref_inv_z,
-            fetch_saturations,
+            fetch_saturations: sat as u64,
         }
     }
 }
 
-/// The fixed mode's expander (`docs/fixed-point.md`, fetch): every valid
-/// sample's colour to `q_colour` and slopes to `q_slope` (held in the FP32
-/// records), its 1/Z checked against `q_ref_inv_z` (rounded where read,
-/// [`HwReference::inv_z`]); a sample whose `(x + ½, y + ½)` exceeds
-/// `q_ref_coord` is dropped (no surface). Returns the saturations.
-fn quantise_expanded(s: &mut SampleImage, f: &FixedFormats) -> u64 {
-    let w = s.width as usize;
-    let mut sat = 0u32;
-    let ones: Vec<usize> = s.valid.iter_ones().collect();
-    for i in ones {
-        let (x, y) = ((i % w) as f64, (i / w) as f64);
-        if x + 0.5 > f.ref_coord.max() || y + 0.5 > f.ref_coord.max() {
-            sat += 1;
-            s.valid.set(i, false);
-            continue;
-        }
-        for c in &mut s.colour[i] {
-            *c = f.colour.q(*c as f64, &mut sat) as f32;
-        }
-        for g in &mut s.inv_z_slopes[i] {
-            *g = f.slope.q(*g as f64, &mut sat) as f32;
-        }
-        f.ref_inv_z.q(1.0 / s.z[i] as f64, &mut sat);
+/// The fixed mode's expander (`docs/fixed-point.md`, fetch) on the record
+/// of sample `(x, y)`: colour to `q_colour` and slopes to `q_slope` (held
+/// in the FP32 record), its 1/Z checked against `q_ref_inv_z` (rounded
+/// where read, [`HwReference::inv_z`]); the rounded 1/Z, or `None` if the
+/// sample is dropped (no surface) because `(x + ½, y + ½)` exceeds
+/// `q_ref_coord`. Saturations are added to `sat`.
+fn quantise_expanded(rec: &mut RefSample, x: u32, y: u32, f: &FixedFormats, sat: &mut u32) -> Option<f64> {
+    let (x, y) = (x as f64, y as f64);
+    if x + 0.5 > f.ref_coord.max() || y + 0.5 > f.ref_coord.max() {
+        *sat += 1;
+        return None;
     }
-    sat as u64
+    for c in &mut rec.colour {
+        *c = f.colour.q(*c as f64, sat) as f32;
+    }
+    for g in &mut rec.slopes {
+        *g = f.slope.q(*g as f64, sat) as f32;
+    }
+    f.ref_inv_z.q(1.0 / rec.z as f64, sat);
+    Some(f.ref_inv_z.quantise(1.0 / rec.z as f64).0)
 }

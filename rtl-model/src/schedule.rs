@@ -78,20 +78,33 @@ impl CoarseDepth {
     /// The coarse depth map of a reference whose sample `i` has 1/Z
     /// `inv_z(i)` (the fixed mode's rounded 1/Z).
     pub fn with_inv_z(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> CoarseDepth {
-        let (w, h) = (img.width, img.height);
-        let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
-        let mut lo = vec![f64::INFINITY; (bw * bh) as usize];
-        let mut hi = vec![f64::NEG_INFINITY; (bw * bh) as usize];
+        let w = img.width as usize;
+        let mut d = CoarseDepth::empty(img.width, img.height);
         for i in img.valid.iter_ones() {
-            let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
-            let iz = inv_z(i);
-            let s = img.inv_z_slopes[i];
-            let r = 0.5 * (s[0].abs() as f64 + s[1].abs() as f64);
-            let b = ((y / BLOCK) * bw + x / BLOCK) as usize;
-            lo[b] = lo[b].min(iz - r);
-            hi[b] = hi[b].max(iz + r);
+            d.add((i % w) as u32, (i / w) as u32, inv_z(i), img.inv_z_slopes[i]);
         }
-        CoarseDepth { bw, bh, lo, hi }
+        d
+    }
+
+    /// The map of a `w x h` reference with no surface yet.
+    pub fn empty(w: u32, h: u32) -> CoarseDepth {
+        let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
+        CoarseDepth {
+            bw,
+            bh,
+            lo: vec![f64::INFINITY; (bw * bh) as usize],
+            hi: vec![f64::NEG_INFINITY; (bw * bh) as usize],
+        }
+    }
+
+    /// Add sample `(x, y)` with 1/Z `iz` and slopes `s` (the ranges are
+    /// minima and maxima: the order of the samples does not matter).
+    #[inline]
+    pub fn add(&mut self, x: u32, y: u32, iz: f64, s: [f32; 2]) {
+        let r = 0.5 * (s[0].abs() as f64 + s[1].abs() as f64);
+        let b = ((y / BLOCK) * self.bw + x / BLOCK) as usize;
+        self.lo[b] = self.lo[b].min(iz - r);
+        self.hi[b] = self.hi[b].max(iz + r);
     }
 
     /// 1/Z range over the whole reference (`None`: no surface).

@@ -45,6 +45,8 @@ use bitvec::vec::BitVec;
 use postwarp_rtl::budget::Budget;
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{FrameOutput, HwReference};
+use postwarp_rtl::hw_reference::abuffer_params;
+use postwarp_rtl::units::abuffer::{AbufferCounters, PackedReference, pack_reference};
 use rayon::prelude::*;
 use std::collections::HashMap;
 use std::path::Path;
@@ -127,7 +129,17 @@ fn measure(
         g.arith = "float".into();
         g
     });
-    let mut refs: HashMap<usize, Refs> = HashMap::new();
+    // Each engine's references, made when a frame first needs them and
+    // dropped after the last frame that warps them. A loaded reference is
+    // prepared for the golden model and packed for the hardware model,
+    // then let go; the hardware model's records are expanded from the
+    // packed form only after the golden model has warped the frame and
+    // dropped what it no longer needs, so the two engines' expanded
+    // references are never held at once (the process's peak memory,
+    // `docs/performance.md`).
+    let mut golden_refs: HashMap<usize, GoldenRefs> = HashMap::new();
+    let mut packed: HashMap<usize, Packed> = HashMap::new();
+    let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
     let mut warper = Warper::new();
     let mut float_warper = Warper::new();
     warper.trim_frames(true);
@@ -135,53 +147,67 @@ fn measure(
     let mut vs_float_luma_db = Vec::new();
     let mut frames = Vec::new();
     for (k, f) in trace.derived.iter().enumerate() {
-        // The references not yet loaded, loaded and packed in parallel
-        // (each alone: the same planes whatever the thread count).
-        let mut missing: Vec<usize> = f.references.iter().copied().filter(|r| !refs.contains_key(r)).collect();
-        missing.sort_unstable();
-        missing.dedup();
-        let loaded: Vec<anyhow::Result<(usize, Refs)>> = missing
+        let missing = |have: &dyn Fn(&usize) -> bool| -> Vec<usize> {
+            let mut m: Vec<usize> = f.references.iter().copied().filter(|r| !have(r)).collect();
+            m.sort_unstable();
+            m.dedup();
+            m
+        };
+        // The references not yet loaded, loaded, prepared and packed in
+        // parallel (each alone: the same planes whatever the thread count).
+        let loaded: Vec<anyhow::Result<(usize, GoldenRefs, Packed)>> = missing(&|r| golden_refs.contains_key(r))
             .par_iter()
             .map(|&r| {
                 let loaded = trace.load_reference(r)?;
-                let (hw, golden) = rayon::join(
-                    || HwReference::new(&loaded.samples, &cfg),
-                    || prepare_reference(&loaded.samples, ss, &gcfg),
+                let (golden, hw) = rayon::join(
+                    || {
+                        let float = float_gcfg.as_ref().map(|g| prepare_reference(&loaded.samples, ss, g));
+                        (prepare_reference(&loaded.samples, ss, &gcfg), float)
+                    },
+                    || {
+                        let mut c = AbufferCounters::default();
+                        (pack_reference(&loaded.samples, &abuffer_params(&cfg), &mut c), c)
+                    },
                 );
-                let float = float_gcfg.as_ref().map(|g| prepare_reference(&loaded.samples, ss, g));
-                Ok((r, (hw, Some(golden), float)))
+                Ok((r, golden, hw))
             })
             .collect();
         for l in loaded {
-            let (r, both) = l?;
-            refs.insert(r, both);
+            let (r, g, p) = l?;
+            golden_refs.insert(r, g);
+            packed.insert(r, p);
         }
         let cmd = trace.frame_commands(k);
         // The golden model first: its working buffers (the last frame's,
-        // `Warper::keep_buffers`) and the prepared references this frame
-        // is the last to use go before the hardware model runs, so the two
-        // engines' peaks do not add up (the process's peak memory).
+        // `Warper::keep_buffers`) and the references this frame is the
+        // last to use go before the hardware model's are packed.
         let last = k + 1 == trace.derived.len();
         warper.keep_buffers(!last);
         float_warper.keep_buffers(!last);
-        let golden_ref = |r: &usize| refs[r].1.as_ref().expect("golden references kept until their last frame");
-        let g_refs: Vec<&PreparedReference> = f.references.iter().map(golden_ref).collect();
+        let g_refs: Vec<&PreparedReference> = f.references.iter().map(|r| &golden_refs[r].0).collect();
         let t = Instant::now();
         let golden = warper.warp_frame(&cmd, &g_refs, &gcfg);
         let golden_ms = t.elapsed().as_secs_f64() * 1e3;
         let float = float_gcfg.as_ref().map(|g| {
-            let f_refs: Vec<&PreparedReference> = f.references.iter().filter_map(|r| refs[r].2.as_ref()).collect();
+            let f_refs: Vec<&PreparedReference> =
+                f.references.iter().filter_map(|r| golden_refs[r].1.as_ref()).collect();
             float_warper.warp_frame(&cmd, &f_refs, g).pixels
         });
-        for (r, (_, golden, float)) in refs.iter_mut() {
-            if last_use[r] <= k {
-                (*golden, *float) = (None, None);
-            }
-        }
-        let hw_refs: Vec<&HwReference> = f.references.iter().map(|r| &refs[r].0).collect();
+        golden_refs.retain(|r, _| last_use[r] > k);
+        // The hardware model's references not yet expanded, in parallel.
+        let expand: Vec<(usize, Packed)> = missing(&|r| hw_refs.contains_key(r))
+            .into_iter()
+            .map(|r| (r, packed.remove(&r).expect("packed when loaded")))
+            .collect();
+        let expanded: Vec<(usize, HwReference)> =
+            expand.into_par_iter().map(|(r, (p, c))| (r, HwReference::from_packed(p, c, &cfg))).collect();
+        hw_refs.extend(expanded);
+        let refs: Vec<&HwReference> = f.references.iter().map(|r| &hw_refs[r]).collect();
         let t = Instant::now();
-        let hw = engine.run_frame(&cmd, &hw_refs);
+        let hw = engine.run_frame(&cmd, &refs);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
+        drop(refs);
+        hw_refs.retain(|r, _| last_use[r] > k);
         if let Some(w) = dram_trace.as_deref_mut() {
             w.frame(&hw.requests, hw.stats.cycles)?;
         }
@@ -243,7 +269,6 @@ fn measure(
             host_ms,
             golden_host_ms: golden_ms,
         });
-        refs.retain(|r, _| last_use[r] > k);
         bar.inc(1);
     }
     let mut report = SimulateReport::new(trace.manifest.display().to_string(), flip, &cfg, from_trace, frames);
@@ -266,10 +291,13 @@ fn measure(
     Ok(SimulateRun { report, summary, vs_float_luma_db })
 }
 
-/// A loaded reference: the hardware model's, the golden model's, and in
-/// fixed mode the float golden model's (the golden ones dropped once
-/// their last frame is warped).
-type Refs = (HwReference, Option<PreparedReference>, Option<PreparedReference>);
+/// A reference prepared for the golden model, and in fixed mode for the
+/// float golden model.
+type GoldenRefs = (PreparedReference, Option<PreparedReference>);
+
+/// A reference packed for the hardware model, with the packer's counters,
+/// until its records are expanded (`HwReference::from_packed`).
+type Packed = (PackedReference, AbufferCounters);
 
 /// The budget of `cfg` for the frame and reference sizes of `trace`.
 fn budget_of(cfg: &EngineConfig, trace: &Trace) -> Budget {

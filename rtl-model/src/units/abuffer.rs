@@ -506,6 +506,16 @@ pub fn pack_reference(img: &SampleImage, p: &AbufferParams, c: &mut AbufferCount
 }
 
 impl PackedReference {
+    /// Width of the frame (samples).
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Height of the frame (samples).
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
     /// Width in whole pixels.
     pub fn width_pixels(&self) -> u32 {
         self.width / self.ss
@@ -566,23 +576,55 @@ impl PackedReference {
         if let Some(raw) = &self.raw {
             return raw.clone();
         }
-        let ss = self.ss;
         let mut out = SampleImage::empty(self.width, self.height);
+        self.for_each_sample(|i, s| {
+            out.colour[i] = s.colour;
+            out.z[i] = s.z;
+            out.inv_z_slopes[i] = s.slopes;
+            out.object_id[i] = s.key;
+            out.valid.set(i, true);
+        });
+        out
+    }
+
+    /// Every sample holding a surface, as [`PackedReference::unpack`]
+    /// expands it, with its row-major index: pixel after pixel (or in
+    /// index order when stored raw). What a consumer that keeps only part
+    /// of each sample reads, without the whole expanded image.
+    pub fn for_each_sample(&self, mut f: impl FnMut(usize, ExpandedSample)) {
+        if let Some(raw) = &self.raw {
+            for i in raw.valid.iter_ones() {
+                let (colour, z, slopes, key) = (raw.colour[i], raw.z[i], raw.inv_z_slopes[i], raw.object_id[i]);
+                f(i, ExpandedSample { colour, z, slopes, key });
+            }
+            return;
+        }
+        let ss = self.ss;
         for py in 0..self.height_pixels() {
             for px in 0..self.width_pixels() {
                 let frags = self.pixel_fragments(px, py);
                 for (k, i) in pixel_samples(self.width, ss, px, py).enumerate() {
-                    let Some(f) = frags.iter().find(|f| f.covers(k as u32)) else { continue };
-                    out.colour[i] = f.colour;
-                    out.z[i] = reference_depth(f.inv_z_at(ss, k as u32));
-                    out.inv_z_slopes[i] = f.slopes;
-                    out.object_id[i] = f.key;
-                    out.valid.set(i, true);
+                    let Some(fr) = frags.iter().find(|fr| fr.covers(k as u32)) else { continue };
+                    let z = reference_depth(fr.inv_z_at(ss, k as u32));
+                    f(i, ExpandedSample { colour: fr.colour, z, slopes: fr.slopes, key: fr.key });
                 }
             }
         }
-        out
     }
+}
+
+/// One sample of a packed reference as the unpacker expands it
+/// ([`PackedReference::for_each_sample`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExpandedSample {
+    /// Linear RGB.
+    pub colour: [f32; 3],
+    /// Depth from the fragment's plane (rule 5).
+    pub z: f32,
+    /// Slopes of 1/Z per sample step.
+    pub slopes: [f32; 2],
+    /// The fragment's key (object id).
+    pub key: u32,
 }
 
 /// Depth of an expanded reference sample from its plane's 1/Z (rule 5).
