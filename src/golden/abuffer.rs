@@ -251,25 +251,49 @@ pub const FAR_Z: f32 = f32::MAX;
 /// (the round trip through memory). With `abuffer_fragments == 0` the samples
 /// pass unchanged.
 pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut AbufferStats) -> SampleImage {
+    let mut out = img.clone();
+    round_trip_reference_in_place(&mut out, p, stats);
+    out
+}
+
+/// [`round_trip_reference`] on the image itself: each pixel's samples are
+/// read before they are rewritten, and samples outside whole pixels are
+/// emptied, so the values are the same without a second image (a loaded
+/// reference becomes its prepared form).
+pub fn round_trip_reference_in_place(img: &mut SampleImage, p: &AbufferParams, stats: &mut AbufferStats) {
     if p.abuffer_fragments == 0 {
-        return img.clone();
+        return;
     }
-    let mut out = SampleImage::empty(img.width, img.height);
-    let mut views = Vec::with_capacity((p.ss * p.ss) as usize);
+    let clear = |img: &mut SampleImage, i: usize| {
+        (img.colour[i], img.z[i], img.inv_z_slopes[i], img.object_id[i]) = ([0.0; 3], 0.0, [0.0; 2], 0);
+        img.valid.set(i, false);
+    };
+    let (w, h, ss) = (img.width, img.height, p.ss);
+    for y in 0..h {
+        for x in 0..w {
+            if x >= w / ss * ss || y >= h / ss * ss {
+                clear(img, img.index(x, y));
+            }
+        }
+    }
+    let mut views = Vec::with_capacity((ss * ss) as usize);
     let mut sc = PixelScratch::default();
-    for_each_pixel(img.width, img.height, p.ss, |_, _, idx| {
+    for_each_pixel(w, h, ss, |_, _, idx| {
         views.clear();
         views.extend(idx.iter().map(|&i| reference_view(img, i)));
         compress_pixel(&views, p, stats, &mut sc);
+        for &i in idx {
+            clear(img, i);
+        }
         for f in &sc.out {
             for (k, &i) in idx.iter().enumerate() {
                 if f.mask & (1 << k) != 0 {
-                    let (ox, oy) = (offset(p.ss, k as u32 % p.ss), offset(p.ss, k as u32 / p.ss));
-                    out.colour[i] = f.colour;
-                    out.z[i] = 1.0 / plane_at(f, ox, oy);
-                    out.inv_z_slopes[i] = f.slopes;
-                    out.object_id[i] = f.key;
-                    out.valid.set(i, true);
+                    let (ox, oy) = (offset(ss, k as u32 % ss), offset(ss, k as u32 / ss));
+                    img.colour[i] = f.colour;
+                    img.z[i] = 1.0 / plane_at(f, ox, oy);
+                    img.inv_z_slopes[i] = f.slopes;
+                    img.object_id[i] = f.key;
+                    img.valid.set(i, true);
                 }
             }
         }
@@ -279,12 +303,11 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
     // so close to 0 that the reciprocal overflows. Memory holds the plane,
     // not the sample's own depth, so the sample goes past the horizon, at
     // the far limit, as the hardware's unpack does.
-    for i in out.valid.iter_ones().collect::<Vec<_>>() {
-        if !(out.z[i].is_finite() && out.z[i] > 0.0) {
-            out.z[i] = FAR_Z;
+    for i in img.valid.iter_ones().collect::<Vec<_>>() {
+        if !(img.z[i].is_finite() && img.z[i] > 0.0) {
+            img.z[i] = FAR_Z;
         }
     }
-    out
 }
 
 /// Compress the derived frame's memory planes to fragments and expand them
@@ -500,6 +523,52 @@ mod tests {
             s.valid.set(k, true);
         }
         s
+    }
+
+    /// The round trip in place gives the planes a second image gets,
+    /// samples outside whole pixels emptied (an odd-sized 2x2-sampled
+    /// frame whose samples all hold a surface).
+    #[test]
+    fn the_round_trip_in_place_is_the_round_trip() {
+        let (w, h) = (7, 5);
+        let mut img = SampleImage::empty(w, h);
+        for i in 0..img.len() {
+            let (x, y) = ((i % w as usize) as f32, (i / w as usize) as f32);
+            img.z[i] = 1.0 / (0.1 + 0.01 * x + 0.02 * (y % 3.0));
+            img.inv_z_slopes[i] = [0.01, 0.02];
+            img.colour[i] = [x / 7.0, y / 5.0, 0.5];
+            img.object_id[i] = 1 + (x as u32 / 4);
+            img.valid.set(i, i % 11 != 3);
+        }
+        for n in [0, 1, 3] {
+            let (mut st, mut st2) = (AbufferStats::default(), AbufferStats::default());
+            let mut want = SampleImage::empty(w, h);
+            // The round trip into a second image, written out here.
+            for_each_pixel(w, h, 2, |_, _, idx| {
+                let views: Vec<_> = idx.iter().map(|&i| reference_view(&img, i)).collect();
+                let mut sc = PixelScratch::default();
+                compress_pixel(&views, &params(n), &mut st2, &mut sc);
+                for f in &sc.out {
+                    for (k, &i) in idx.iter().enumerate().filter(|(k, _)| f.mask & (1 << k) != 0) {
+                        let (ox, oy) = (offset(2, k as u32 % 2), offset(2, k as u32 / 2));
+                        (want.colour[i], want.z[i], want.inv_z_slopes[i]) =
+                            (f.colour, 1.0 / plane_at(f, ox, oy), f.slopes);
+                        want.object_id[i] = f.key;
+                        want.valid.set(i, true);
+                    }
+                }
+            });
+            let mut got = img.clone();
+            round_trip_reference_in_place(&mut got, &params(n), &mut st);
+            if n == 0 {
+                assert_eq!(got, img, "no A-buffer: unchanged");
+                continue;
+            }
+            assert_eq!(got, want, "{n} fragments");
+            assert_eq!(st.fragments_per_pixel, st2.fragments_per_pixel);
+            assert!(!got.valid[6] && !got.valid[(4 * w) as usize], "outside whole pixels: empty");
+            assert!(got.valid.count_ones() > 0);
+        }
     }
 
     #[test]

@@ -26,7 +26,9 @@
 //!    ([`fallback_fill`]), and the pixels it changed take the A-buffer trip
 //!    again, as the hardware writes them back.
 
-use super::abuffer::{AbufferParams, AbufferStats, round_trip_dest, round_trip_dest_where, round_trip_reference};
+use super::abuffer::{
+    AbufferParams, AbufferStats, round_trip_dest, round_trip_dest_where, round_trip_reference_in_place,
+};
 use super::composite::Outcome;
 use super::config::{GoldenConfig, Reconstruction};
 use super::cull;
@@ -186,8 +188,15 @@ fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
 
 /// Rule 1.
 pub fn prepare_reference(img: &SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
+    prepare_reference_owned(img.clone(), ss, cfg)
+}
+
+/// [`prepare_reference`] of a loaded reference the caller no longer needs:
+/// its planes become the prepared samples (the A-buffer's round trip in
+/// place), without a second image.
+pub fn prepare_reference_owned(mut samples: SampleImage, ss: u32, cfg: &GoldenConfig) -> PreparedReference {
     let mut abuffer = AbufferStats::default();
-    let mut samples = round_trip_reference(img, &abuffer_params(ss, cfg), &mut abuffer);
+    round_trip_reference_in_place(&mut samples, &abuffer_params(ss, cfg), &mut abuffer);
     samples.object_id = Vec::new();
     let Some(f) = cfg.fixed_formats().ok().flatten() else {
         let blocks = cull::block_depth(&samples);

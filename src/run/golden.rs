@@ -17,7 +17,7 @@
 
 use super::frame_exr::{Planes, derived_samples, write_frame_exr};
 use crate::golden::config::GoldenConfig;
-use crate::golden::frame::{GoldenFrame, PreparedReference, Warper, prepare_reference};
+use crate::golden::frame::{GoldenFrame, PreparedReference, Warper, prepare_reference_owned};
 use crate::report::GoldenReport;
 use crate::report::golden::{GoldenCounters, GoldenFrame as FrameEntry, GoldenReferences};
 use crate::report::images::write_hole_mask;
@@ -89,9 +89,10 @@ pub fn run_golden(trace: &Trace, cfg: &GoldenConfig, flip: bool, out: &Path) -> 
                     .par_iter()
                     .map(|&r| {
                         let loaded = trace.load_reference(r)?;
+                        let slopes = loaded.slopes.name().to_string();
                         let t = Instant::now();
-                        let p = prepare_reference(&loaded.samples, ss, cfg);
-                        Ok((r, loaded.slopes.name().to_string(), p, t.elapsed().as_secs_f64() * 1e3))
+                        let p = prepare_reference_owned(loaded.samples, ss, cfg);
+                        Ok((r, slopes, p, t.elapsed().as_secs_f64() * 1e3))
                     })
                     .collect();
                 for l in loaded {

@@ -29,7 +29,7 @@
 //!    (`ignored_layers`).
 
 use super::frame_exr::{Planes, write_frame_exr};
-use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
+use crate::golden::frame::{PreparedReference, Warper, prepare_reference, prepare_reference_owned};
 use crate::metrics::psnr::{luma, psnr_plane, psnr_rgb};
 use crate::picture::{to_srgb8, write_png};
 use crate::report::SimulateReport;
@@ -158,18 +158,16 @@ fn measure(
         let loaded: Vec<anyhow::Result<(usize, GoldenRefs, Packed)>> = missing(&|r| golden_refs.contains_key(r))
             .par_iter()
             .map(|&r| {
-                let loaded = trace.load_reference(r)?;
-                let (golden, hw) = rayon::join(
-                    || {
-                        let float = float_gcfg.as_ref().map(|g| prepare_reference(&loaded.samples, ss, g));
-                        (prepare_reference(&loaded.samples, ss, &gcfg), float)
-                    },
+                let raw = trace.load_reference(r)?.samples;
+                let (float, hw) = rayon::join(
+                    || float_gcfg.as_ref().map(|g| prepare_reference(&raw, ss, g)),
                     || {
                         let mut c = AbufferCounters::default();
-                        (pack_reference(&loaded.samples, &abuffer_params(&cfg), &mut c), c)
+                        (pack_reference(&raw, &abuffer_params(&cfg), &mut c), c)
                     },
                 );
-                Ok((r, golden, hw))
+                // Last: the loaded planes become the golden model's.
+                Ok((r, (prepare_reference_owned(raw, ss, &gcfg), float), hw))
             })
             .collect();
         for l in loaded {
