@@ -256,10 +256,6 @@ pub struct KernelSetupPorts<'a> {
     pub tiles: &'a mut TileManager,
 }
 
-/// Visiting positions of a line whose kernels the host computes at a time
-/// (a host-speed split, [`KernelSetupStage`]'s `compute_chunk`).
-const CHUNK: i64 = 64;
-
 /// What kernel setup emits for one valid sample of a line.
 #[derive(Clone, Copy, Debug)]
 enum Emit {
@@ -279,15 +275,11 @@ pub struct KernelSetupStage<'s> {
     threshold: f64,
     lanes: usize,
     line: usize,
-    /// The current line's emissions (its valid samples in visiting order),
-    /// computed a chunk of [`CHUNK`] visiting positions at a time, and how
-    /// many of the chunk's have been emitted.
+    /// The current line's emissions (its valid samples in visiting order)
+    /// once its kernels are computed, and how many have been emitted.
     emits: Vec<Emit>,
-    /// The line's warps, groups and records are in the line buffer.
     computed: bool,
     next_emit: usize,
-    /// The next visiting position of the line to compute.
-    next_pos: i64,
     /// Host scratch: the current line's reference records, gathered before
     /// its kernels are computed (a column sheet's records are a row apart;
     /// independent loads overlap their misses). No model state.
@@ -322,10 +314,9 @@ impl<'s> KernelSetupStage<'s> {
             threshold,
             lanes: lanes as usize,
             line: 0,
-            emits: Vec::with_capacity(CHUNK as usize),
+            emits: Vec::new(),
             computed: false,
             next_emit: 0,
-            next_pos: 0,
             recs_run: Vec::new(),
             kernels: 0,
             culled: 0,
@@ -348,9 +339,7 @@ impl<'s> KernelSetupStage<'s> {
     fn next_line(&mut self) {
         self.line += 1;
         self.computed = false;
-        self.emits.clear();
         self.next_emit = 0;
-        self.next_pos = 0;
     }
 
     /// One cycle (rule 6).
@@ -374,14 +363,10 @@ impl<'s> KernelSetupStage<'s> {
                 break;
             }
             if !self.computed {
-                self.prepare_line(io.transform);
+                self.compute_line(io.transform);
             }
             let Some(e) = self.emits.get(self.next_emit) else {
-                if self.next_pos < self.lines[self.line].len() as i64 {
-                    self.compute_chunk();
-                } else {
-                    self.next_line();
-                }
+                self.next_line();
                 continue;
             };
             if !io.out.offer(now) {
@@ -403,12 +388,10 @@ impl<'s> KernelSetupStage<'s> {
         self.activity.record(now, t)
     }
 
-    /// Ready the current line (rule 6: its kernels are a pure function of
-    /// the reference and the warp, so the host computes them when kernel
-    /// setup first reaches the line): the warps of its line and both
-    /// neighbours and the groups around it in the line buffer, and its
-    /// records gathered.
-    fn prepare_line(&mut self, transform: &TransformStage) {
+    /// The kernels of the current line's valid samples, in visiting order
+    /// (rules 1–5): a pure function of the reference and the warp, so the
+    /// host computes the whole line when kernel setup first reaches it.
+    fn compute_line(&mut self, transform: &TransformStage) {
         let l = self.lines[self.line];
         let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
         let src = Sources { tu, r, transform, threshold };
@@ -421,27 +404,8 @@ impl<'s> KernelSetupStage<'s> {
         for line in [c - 1, c] {
             buf.fill_groups(src, major, line, lo - 1, hi);
         }
-        let recs = r.line_recs(major, l.line);
-        self.recs_run.clear();
-        self.recs_run.extend((lo..=hi).map(|a| *recs.at(a as usize)));
         self.emits.clear();
-        self.next_emit = 0;
-        self.next_pos = 0;
-        self.computed = true;
-    }
-
-    /// The kernels of the current line's valid samples at the next
-    /// [`CHUNK`] visiting positions, in visiting order (rules 1–5), into
-    /// `emits` (a host-speed split: a whole line's kernels would not stay
-    /// in the host's caches until emitted; the values are the same).
-    fn compute_chunk(&mut self) {
-        let l = self.lines[self.line];
-        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
-        let (major, c) = (l.major, l.line as i64);
-        let (lo, hi) = (l.lo as i64, l.hi as i64);
-        let buf = &*self.buffer;
-        self.emits.clear();
-        self.next_emit = 0;
+        self.emits.reserve(l.len() as usize);
         let epipole = &tu.setup.epipole_reference;
         let len = match major {
             Major::Row => r.width as i64,
@@ -451,9 +415,10 @@ impl<'s> KernelSetupStage<'s> {
         let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];
         let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
         let group = |row: Option<&[Option<Group>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
-        let (k0, k1) = (self.next_pos, (self.next_pos + CHUNK).min(l.len() as i64));
-        self.next_pos = k1;
-        for k in k0..k1 {
+        let recs = r.line_recs(major, l.line);
+        self.recs_run.clear();
+        self.recs_run.extend((lo..=hi).map(|a| *recs.at(a as usize)));
+        for k in 0..l.len() as i64 {
             let a = if l.step > 0 { lo + k } else { hi - k };
             let (x, y) = at(major, c, a);
             if !r.valid_at(r.grid.index(x, y)) {
@@ -505,6 +470,7 @@ impl<'s> KernelSetupStage<'s> {
                 sat: [t.sat + ts, ks],
             }));
         }
+        self.computed = true;
     }
 
     /// End the warp at `now`; the unit's cycles and (when recording) its
