@@ -160,7 +160,10 @@ fn freeing_the_working_buffers_changes_no_frame() {
     assert!(prepared.iter().all(|p| p.samples.object_id.is_empty() && p.samples.colour.len() == 48 * 32));
     let r: Vec<_> = prepared.iter().collect();
     let mut warper = Warper::new();
-    let frames = [(true, false, 0.05), (false, true, -0.1), (true, true, 0.2), (false, false, 0.0)];
+    // The last frame's camera is far beyond both references: a border
+    // strip no reference saw goes to the fallback pass, which reads the
+    // cache-only planes (so they must still be there when it runs).
+    let frames = [(true, false, 0.05), (false, true, -0.1), (true, true, 0.2), (false, false, 0.0), (false, true, 2.5)];
     for (k, (keep, trim, x)) in frames.into_iter().enumerate() {
         let cmd = FrameCommands::new(k, at_x(24, 16, x), 2, &cams);
         let fresh = warp_frame(&cmd, &r, &cfg);
@@ -179,5 +182,6 @@ fn freeing_the_working_buffers_changes_no_frame() {
         } else {
             assert_eq!(a, b, "frame {k}: every plane");
         }
+        assert_eq!(out.stats.fallback_filled > 0, k == 4, "frame {k}: the fallback pass ran only in the last");
     }
 }

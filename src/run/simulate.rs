@@ -134,9 +134,10 @@ fn measure(
     // prepared for the golden model and packed for the hardware model,
     // then let go; the hardware model's records are expanded from the
     // packed form only after the golden model has warped the frame and
-    // dropped what it no longer needs, so the two engines' expanded
-    // references are never held at once (the process's peak memory,
-    // `docs/performance.md`).
+    // dropped what it no longer needs, so in a reference's last frame
+    // (every frame of a one-frame run) the two engines' expanded forms of
+    // it are not held at once (the process's peak memory,
+    // `docs/performance.md`); a reference later frames reuse keeps both.
     let mut golden_refs: HashMap<usize, GoldenRefs> = HashMap::new();
     let mut packed: HashMap<usize, Packed> = HashMap::new();
     let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
