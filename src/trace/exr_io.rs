@@ -57,26 +57,25 @@ pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedR
 /// Decode the bytes of a reference image file of `expected` `(width,
 /// height)` samples; `file` only names the source in errors.
 pub fn decode_reference_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
-    let ch = Channels::decode(bytes, file, expected)?;
+    // Each channel is taken out of the decoded ones as it becomes a plane
+    // (moved when stored as float), so the decoded channels and the image
+    // are never both held whole (a loaded reference's peak memory).
+    let mut ch = Channels::decode(bytes, file, expected)?;
     let (w, h) = expected;
     let n = w as usize * h as usize;
-    let mut img = SampleImage::empty(w, h);
-    img.colour = ch.rgb()?;
-    img.z = ch.f32s("Z")?.ok_or_else(|| ch.err("missing channel `Z` (depth)"))?;
-    img.valid = ch.mask()?;
-    if let Some(ids) = ch.u32s("id")? {
-        img.object_id = ids;
-    }
-    let dx = ch.f32s("dinvz_dx")?;
-    let dy = ch.f32s("dinvz_dy")?;
-    let slopes = match (dx, dy) {
-        (Some(dx), Some(dy)) => {
-            img.inv_z_slopes = dx.into_iter().zip(dy).map(|(a, b)| [a, b]).collect();
-            SlopeSource::Exact
-        }
-        (None, None) => SlopeSource::FiniteDifference,
+    let colour = ch.take_rgb()?;
+    let z = ch.take_f32s("Z")?.ok_or_else(|| ch.err("missing channel `Z` (depth)"))?;
+    let valid = ch.take_bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n));
+    let object_id = ch.take_u32s("id")?.unwrap_or_else(|| vec![0; n]);
+    let dx = ch.take_f32s("dinvz_dx")?;
+    let dy = ch.take_f32s("dinvz_dy")?;
+    let (inv_z_slopes, slopes) = match (dx, dy) {
+        (Some(dx), Some(dy)) => (dx.into_iter().zip(dy).map(|(a, b)| [a, b]).collect(), SlopeSource::Exact),
+        (None, None) => (vec![[0.0; 2]; n], SlopeSource::FiniteDifference),
         _ => return Err(ch.err("has only one of the channels `dinvz_dx`, `dinvz_dy`; expected both or neither")),
     };
+    ch.list = Vec::new();
+    let mut img = SampleImage { width: w, height: h, colour, z, inv_z_slopes, object_id, valid };
     for i in 0..n {
         let (x, y) = (i % w as usize, i / w as usize);
         if !img.valid[i] {
@@ -362,6 +361,56 @@ impl Channels {
         }
     }
 
+    /// The position of channel `name`, checked to hold half or float
+    /// samples (`None` if absent), as [`Channels::f32s`] checks it.
+    fn float_channel(&self, name: &str) -> Result<Option<usize>, TraceError> {
+        match self.list.iter().position(|(n, _)| n == name) {
+            Some(k) if matches!(self.list[k].1, FlatSamples::U32(_)) => {
+                Err(self.err(format!("channel `{name}` is uint; expected half or float")))
+            }
+            k => Ok(k),
+        }
+    }
+
+    /// [`Channels::f32s`], taking the channel out of the list (its samples
+    /// moved, not copied, when stored as float).
+    fn take_f32s(&mut self, name: &str) -> Result<Option<Vec<f32>>, TraceError> {
+        let Some(k) = self.float_channel(name)? else { return Ok(None) };
+        Ok(Some(match self.list.remove(k).1 {
+            FlatSamples::F32(v) => v,
+            other => other.values_as_f32().collect(),
+        }))
+    }
+
+    /// [`Channels::u32s`], taking the channel out of the list.
+    fn take_u32s(&mut self, name: &str) -> Result<Option<Vec<u32>>, TraceError> {
+        match self.list.iter().position(|(n, _)| n == name) {
+            None => Ok(None),
+            Some(k) => match self.list[k].1 {
+                FlatSamples::U32(_) => match self.list.remove(k).1 {
+                    FlatSamples::U32(v) => Ok(Some(v)),
+                    _ => unreachable!("checked to be uint"),
+                },
+                _ => Err(self.err(format!("channel `{name}` is half or float; expected uint"))),
+            },
+        }
+    }
+
+    /// [`Channels::rgb`], taking the three channels out of the list.
+    fn take_rgb(&mut self) -> Result<Vec<[f32; 3]>, TraceError> {
+        let mut planes = Vec::with_capacity(3);
+        for name in ["R", "G", "B"] {
+            planes.push(self.take_f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
+        }
+        interleave_rgb(&planes, |m| self.err(m))
+    }
+
+    /// [`Channels::bits`], taking the channel out of the list.
+    fn take_bits(&mut self, name: &str) -> Result<Option<BitVec>, TraceError> {
+        let Some(v) = self.take_f32s(name)? else { return Ok(None) };
+        zero_one_bits(v, name, |m| self.err(m)).map(Some)
+    }
+
     fn u32s(&self, name: &str) -> Result<Option<Vec<u32>>, TraceError> {
         match self.get(name) {
             None => Ok(None),
@@ -375,15 +424,7 @@ impl Channels {
         for name in ["R", "G", "B"] {
             planes.push(self.f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
         }
-        let mut out = Vec::with_capacity(planes[0].len());
-        for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
-            let c = [*r, *g, *b];
-            if !c.iter().all(|v| v.is_finite()) {
-                return Err(self.err(format!("pixel {i}: colour {c:?} is not finite")));
-            }
-            out.push(c);
-        }
-        Ok(out)
+        interleave_rgb(&planes, |m| self.err(m))
     }
 
     fn mask(&self) -> Result<BitVec, TraceError> {
@@ -394,15 +435,7 @@ impl Channels {
     /// A 0/1 channel as bits (`None` if absent).
     fn bits(&self, name: &str) -> Result<Option<BitVec>, TraceError> {
         let Some(v) = self.f32s(name)? else { return Ok(None) };
-        let mut m = BitVec::with_capacity(v.len());
-        for (i, x) in v.into_iter().enumerate() {
-            match x {
-                1.0 => m.push(true),
-                0.0 => m.push(false),
-                _ => return Err(self.err(format!("sample {i}: `{name}` = {x}; expected 0 or 1"))),
-            }
-        }
-        Ok(Some(m))
+        zero_one_bits(v, name, |m| self.err(m)).map(Some)
     }
 
     /// A required half/float channel.
@@ -613,4 +646,31 @@ fn rgb_channels_named(prefix: &str, colour: &[[f32; 3]]) -> Vec<AnyChannel<FlatS
             )
         })
         .collect()
+}
+
+/// The R, G, B planes as one colour per sample, each channel finite
+/// (`err` makes the file's error).
+fn interleave_rgb(planes: &[Vec<f32>], err: impl Fn(String) -> TraceError) -> Result<Vec<[f32; 3]>, TraceError> {
+    let mut out = Vec::with_capacity(planes[0].len());
+    for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
+        let c = [*r, *g, *b];
+        if !c.iter().all(|v| v.is_finite()) {
+            return Err(err(format!("pixel {i}: colour {c:?} is not finite")));
+        }
+        out.push(c);
+    }
+    Ok(out)
+}
+
+/// A 0/1 channel `name` as bits (`err` makes the file's error).
+fn zero_one_bits(v: Vec<f32>, name: &str, err: impl Fn(String) -> TraceError) -> Result<BitVec, TraceError> {
+    let mut m = BitVec::with_capacity(v.len());
+    for (i, x) in v.into_iter().enumerate() {
+        match x {
+            1.0 => m.push(true),
+            0.0 => m.push(false),
+            _ => return Err(err(format!("sample {i}: `{name}` = {x}; expected 0 or 1"))),
+        }
+    }
+    Ok(m)
 }
