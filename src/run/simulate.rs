@@ -205,7 +205,6 @@ fn measure(
         let t = Instant::now();
         let hw = engine.run_frame(&cmd, &refs);
         let host_ms = t.elapsed().as_secs_f64() * 1e3;
-        drop(refs);
         hw_refs.retain(|r, _| last_use[r] > k);
         if let Some(w) = dram_trace.as_deref_mut() {
             w.frame(&hw.requests, hw.stats.cycles)?;

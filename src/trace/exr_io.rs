@@ -112,10 +112,13 @@ pub fn read_truth_image(path: &Path, expected: (u32, u32)) -> Result<TruthImage,
 /// Decode the bytes of a ground-truth image file of `expected` `(width,
 /// height)` pixels; `file` only names the source in errors.
 pub fn decode_truth_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<TruthImage, TraceError> {
-    let ch = Channels::decode(bytes, file, expected)?;
-    let nondiffuse = ch.bits("nondiffuse")?;
-    let seen = ch.bits("seen")?;
-    Ok(TruthImage { width: expected.0, height: expected.1, colour: ch.rgb()?, known: ch.mask()?, nondiffuse, seen })
+    let mut ch = Channels::decode(bytes, file, expected)?;
+    let nondiffuse = ch.take_bits("nondiffuse")?;
+    let seen = ch.take_bits("seen")?;
+    let colour = ch.take_rgb()?;
+    let n = expected.0 as usize * expected.1 as usize;
+    let known = ch.take_bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n));
+    Ok(TruthImage { width: expected.0, height: expected.1, colour, known, nondiffuse, seen })
 }
 
 /// Write a reference image. Slope channels are written only for
@@ -349,20 +352,8 @@ impl Channels {
         TraceError::file(&self.path, msg)
     }
 
-    fn get(&self, name: &str) -> Option<&FlatSamples> {
-        self.list.iter().find(|(n, _)| n == name).map(|(_, s)| s)
-    }
-
-    fn f32s(&self, name: &str) -> Result<Option<Vec<f32>>, TraceError> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(FlatSamples::U32(_)) => Err(self.err(format!("channel `{name}` is uint; expected half or float"))),
-            Some(s) => Ok(Some(s.values_as_f32().collect())),
-        }
-    }
-
     /// The position of channel `name`, checked to hold half or float
-    /// samples (`None` if absent), as [`Channels::f32s`] checks it.
+    /// samples (`None` if absent).
     fn float_channel(&self, name: &str) -> Result<Option<usize>, TraceError> {
         match self.list.iter().position(|(n, _)| n == name) {
             Some(k) if matches!(self.list[k].1, FlatSamples::U32(_)) => {
@@ -372,8 +363,31 @@ impl Channels {
         }
     }
 
+    /// The position of channel `name`, checked to hold uint samples
+    /// (`None` if absent).
+    fn uint_channel(&self, name: &str) -> Result<Option<usize>, TraceError> {
+        match self.list.iter().position(|(n, _)| n == name) {
+            Some(k) if !matches!(self.list[k].1, FlatSamples::U32(_)) => {
+                Err(self.err(format!("channel `{name}` is half or float; expected uint")))
+            }
+            k => Ok(k),
+        }
+    }
+
+    fn f32s(&self, name: &str) -> Result<Option<Vec<f32>>, TraceError> {
+        Ok(self.float_channel(name)?.map(|k| self.list[k].1.values_as_f32().collect()))
+    }
+
+    fn u32s(&self, name: &str) -> Result<Option<Vec<u32>>, TraceError> {
+        Ok(self.uint_channel(name)?.map(|k| match &self.list[k].1 {
+            FlatSamples::U32(v) => v.clone(),
+            _ => unreachable!("checked to be uint"),
+        }))
+    }
+
     /// [`Channels::f32s`], taking the channel out of the list (its samples
-    /// moved, not copied, when stored as float).
+    /// moved, not copied, when stored as float): a decoder that takes each
+    /// channel as it makes a plane never holds both whole.
     fn take_f32s(&mut self, name: &str) -> Result<Option<Vec<f32>>, TraceError> {
         let Some(k) = self.float_channel(name)? else { return Ok(None) };
         Ok(Some(match self.list.remove(k).1 {
@@ -384,58 +398,43 @@ impl Channels {
 
     /// [`Channels::u32s`], taking the channel out of the list.
     fn take_u32s(&mut self, name: &str) -> Result<Option<Vec<u32>>, TraceError> {
-        match self.list.iter().position(|(n, _)| n == name) {
-            None => Ok(None),
-            Some(k) => match self.list[k].1 {
-                FlatSamples::U32(_) => match self.list.remove(k).1 {
-                    FlatSamples::U32(v) => Ok(Some(v)),
-                    _ => unreachable!("checked to be uint"),
-                },
-                _ => Err(self.err(format!("channel `{name}` is half or float; expected uint"))),
-            },
+        let Some(k) = self.uint_channel(name)? else { return Ok(None) };
+        match self.list.remove(k).1 {
+            FlatSamples::U32(v) => Ok(Some(v)),
+            _ => unreachable!("checked to be uint"),
         }
     }
 
-    /// [`Channels::rgb`], taking the three channels out of the list.
+    /// The `R`, `G`, `B` channels, taken out of the list, as one finite
+    /// colour per sample.
     fn take_rgb(&mut self) -> Result<Vec<[f32; 3]>, TraceError> {
         let mut planes = Vec::with_capacity(3);
         for name in ["R", "G", "B"] {
             planes.push(self.take_f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
         }
-        interleave_rgb(&planes, |m| self.err(m))
+        let mut out = Vec::with_capacity(planes[0].len());
+        for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
+            let c = [*r, *g, *b];
+            if !c.iter().all(|v| v.is_finite()) {
+                return Err(self.err(format!("pixel {i}: colour {c:?} is not finite")));
+            }
+            out.push(c);
+        }
+        Ok(out)
     }
 
-    /// [`Channels::bits`], taking the channel out of the list.
+    /// A 0/1 channel, taken out of the list, as bits (`None` if absent).
     fn take_bits(&mut self, name: &str) -> Result<Option<BitVec>, TraceError> {
         let Some(v) = self.take_f32s(name)? else { return Ok(None) };
-        zero_one_bits(v, name, |m| self.err(m)).map(Some)
-    }
-
-    fn u32s(&self, name: &str) -> Result<Option<Vec<u32>>, TraceError> {
-        match self.get(name) {
-            None => Ok(None),
-            Some(FlatSamples::U32(v)) => Ok(Some(v.clone())),
-            Some(_) => Err(self.err(format!("channel `{name}` is half or float; expected uint"))),
+        let mut m = BitVec::with_capacity(v.len());
+        for (i, x) in v.into_iter().enumerate() {
+            match x {
+                1.0 => m.push(true),
+                0.0 => m.push(false),
+                _ => return Err(self.err(format!("sample {i}: `{name}` = {x}; expected 0 or 1"))),
+            }
         }
-    }
-
-    fn rgb(&self) -> Result<Vec<[f32; 3]>, TraceError> {
-        let mut planes = Vec::with_capacity(3);
-        for name in ["R", "G", "B"] {
-            planes.push(self.f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
-        }
-        interleave_rgb(&planes, |m| self.err(m))
-    }
-
-    fn mask(&self) -> Result<BitVec, TraceError> {
-        let n = self.list.first().map(|(_, s)| s.len()).unwrap_or(0);
-        Ok(self.bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n)))
-    }
-
-    /// A 0/1 channel as bits (`None` if absent).
-    fn bits(&self, name: &str) -> Result<Option<BitVec>, TraceError> {
-        let Some(v) = self.f32s(name)? else { return Ok(None) };
-        zero_one_bits(v, name, |m| self.err(m)).map(Some)
+        Ok(Some(m))
     }
 
     /// A required half/float channel.
@@ -646,31 +645,4 @@ fn rgb_channels_named(prefix: &str, colour: &[[f32; 3]]) -> Vec<AnyChannel<FlatS
             )
         })
         .collect()
-}
-
-/// The R, G, B planes as one colour per sample, each channel finite
-/// (`err` makes the file's error).
-fn interleave_rgb(planes: &[Vec<f32>], err: impl Fn(String) -> TraceError) -> Result<Vec<[f32; 3]>, TraceError> {
-    let mut out = Vec::with_capacity(planes[0].len());
-    for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
-        let c = [*r, *g, *b];
-        if !c.iter().all(|v| v.is_finite()) {
-            return Err(err(format!("pixel {i}: colour {c:?} is not finite")));
-        }
-        out.push(c);
-    }
-    Ok(out)
-}
-
-/// A 0/1 channel `name` as bits (`err` makes the file's error).
-fn zero_one_bits(v: Vec<f32>, name: &str, err: impl Fn(String) -> TraceError) -> Result<BitVec, TraceError> {
-    let mut m = BitVec::with_capacity(v.len());
-    for (i, x) in v.into_iter().enumerate() {
-        match x {
-            1.0 => m.push(true),
-            0.0 => m.push(false),
-            _ => return Err(err(format!("sample {i}: `{name}` = {x}; expected 0 or 1"))),
-        }
-    }
-    Ok(m)
 }
