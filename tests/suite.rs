@@ -45,6 +45,7 @@ mod precision;
 mod props_abuffer;
 mod props_composite;
 mod props_dram;
+mod props_float_ranges;
 mod props_hole_fill;
 mod props_kernel;
 mod props_raster;
