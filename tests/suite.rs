@@ -23,6 +23,7 @@ mod hw_abuffer;
 mod hw_engine;
 mod hw_fallback;
 mod hw_fill_on_eviction;
+mod hw_look_ahead;
 mod hw_model;
 mod hw_skip_exact;
 mod hw_stats_snapshot;

@@ -108,24 +108,18 @@ impl DestFrame {
     /// in the host's caches at nearly every stamp.
     #[inline(always)]
     pub fn prefetch(&self, i: usize) {
-        #[cfg(target_arch = "x86_64")]
         if i < self.len() {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-            let at = |p: *const u8| {
-                // SAFETY: a prefetch is a hint that never faults, and `p`
-                // points into (or at a bit word of) an allocated plane.
-                unsafe { _mm_prefetch::<_MM_HINT_T0>(p as *const i8) }
-            };
-            at(self.colour[i..].as_ptr().cast());
-            at(self.inv_z[i..].as_ptr().cast());
-            at(self.slopes[i..].as_ptr().cast());
+            use crate::host_hint::prefetch as at;
+            at(self.colour[i..].as_ptr());
+            at(self.inv_z[i..].as_ptr());
+            at(self.slopes[i..].as_ptr());
             at(self.source[i..].as_ptr());
-            at(self.fill_colour[i..].as_ptr().cast());
+            at(self.fill_colour[i..].as_ptr());
             at(self.fill_distance[i..].as_ptr());
-            at(self.fill_weight[i..].as_ptr().cast());
+            at(self.fill_weight[i..].as_ptr());
             let word = i / usize::BITS as usize;
             for bits in [&self.real, &self.hole, &self.fill_valid] {
-                at(bits.as_raw_slice()[word..].as_ptr().cast());
+                at(bits.as_raw_slice()[word..].as_ptr());
             }
         }
     }

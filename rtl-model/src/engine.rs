@@ -80,6 +80,7 @@ use crate::units::fetch::{FetchPorts, FetchStage, SourceCache};
 use crate::units::hole_fill::{HoleFillParams, HoleFillPorts, HoleFillStage, HoleFillUnit};
 use crate::units::kernel_setup::{Kernel, KernelSetupPorts, KernelSetupStage};
 use crate::units::line_buffer::LineBuffer;
+use crate::units::line_kernels::{LineKernels, LineSource, LinesAhead};
 use crate::units::packer::{PackerPorts, PackerStage};
 use crate::units::raster::{RasterPorts, RasterStage, Stamped};
 use crate::units::resolve::resolve;
@@ -125,6 +126,9 @@ pub struct Engine {
     record: bool,
     record_requests: bool,
     skip: bool,
+    /// Compute kernel setup's lines on a second host thread
+    /// ([`Engine::look_ahead`]).
+    look_ahead: bool,
     /// The DRAM backend of `dram_backend` other than `ideal`, one per frame.
     backend: Option<DramBackendFactory>,
 }
@@ -171,6 +175,7 @@ impl Engine {
             record: false,
             record_requests: false,
             skip: true,
+            look_ahead: std::thread::available_parallelism().is_ok_and(|n| n.get() > 1),
             backend,
         })
     }
@@ -194,6 +199,16 @@ impl Engine {
         self.skip = on;
     }
 
+    /// Compute kernel setup's lines (pure functions of the reference and
+    /// the warp) on a second host thread, ahead of the clocked loop
+    /// (`units::line_kernels`), or on the loop's own thread when it reaches
+    /// them. Values, cycles and every counter are the same either way
+    /// (`tests/hw_engine.rs`); only host time differs. On by default when
+    /// the host has more than one core.
+    pub fn look_ahead(&mut self, on: bool) {
+        self.look_ahead = on;
+    }
+
     /// The configuration.
     pub fn config(&self) -> &EngineConfig {
         &self.cfg
@@ -209,13 +224,13 @@ impl Engine {
         let cfg = &self.cfg;
         let dst = cmd.derived_camera.sample_grid(cfg.supersample);
         let (dw, dh) = (dst.intrinsics.width, dst.intrinsics.height);
-        let mut f = DestFrame::new(dw, dh);
         let fixed = self.fixed.clone();
         let sizes: Vec<(u32, u32)> = refs.iter().map(|r| (r.width, r.height)).collect();
         let layout = MemoryLayout::new(cfg, (dw, dh), &sizes);
         let mut m = Machine {
             cfg,
             skip: self.skip,
+            look_ahead: self.look_ahead,
             dram: match &self.backend {
                 None => Dram::new(cfg.dram()),
                 Some(make) => Dram::with_backend(cfg.dram(), make()),
@@ -239,15 +254,34 @@ impl Engine {
         }
         m.dram.tick(m.now);
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
-        for (j, (warp, r)) in cmd.warps.iter().zip(refs).enumerate() {
-            let tu = TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
-                .with_fixed(fixed.clone());
+        let tus: Vec<TransformUnit> = (cmd.warps.iter().enumerate())
+            .map(|(j, warp)| {
+                TransformUnit::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
+                    .with_fixed(fixed.clone())
+            })
+            .collect();
+        let inputs: Vec<WarpInput<'_>> = (tus.iter().zip(refs).enumerate())
+            .map(|(j, (tu, r))| WarpInput { tu, r, number: j, dst, region: *layout.reference(j) })
+            .collect();
+        let plan = |w: &WarpInput<'_>| WarpPlan::new(cfg, w, (dw, dh), false);
+        let mut f = DestFrame::new(dw, dh);
+        let mut next = inputs.first().map(|w| WarpPlan::new(cfg, w, (dw, dh), m.look_ahead));
+        for (j, w) in inputs.iter().enumerate() {
             if let Some(sat) = &mut m.stats.saturations {
-                sat.fetch += r.fetch_saturations;
+                sat.fetch += w.r.fetch_saturations;
             }
-            let region = *layout.reference(j);
-            m.run_warp(&mut f, &WarpInput { tu: &tu, r, number: j, dst, region }, &mut self.buffer);
-            m.stats.reference_packed_bytes += r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
+            let this = next.take().expect("each warp is planned before it runs");
+            std::thread::scope(|scope| {
+                // The next warp's plan (driver software, a pure function
+                // of its inputs) on another host thread meanwhile.
+                let ahead = inputs.get(j + 1).filter(|_| m.look_ahead).map(|w| scope.spawn(move || plan(w)));
+                m.run_warp(&mut f, w, &this, &mut self.buffer);
+                next = match ahead {
+                    Some(h) => Some(h.join().unwrap_or_else(|e| std::panic::resume_unwind(e))),
+                    None => inputs.get(j + 1).map(plan),
+                };
+            });
+            m.stats.reference_packed_bytes += w.r.packed.bytes_in_pixels(0, 0, u32::MAX, u32::MAX);
             m.stats.dest_packed_bytes.push(m.cache.packed_bytes().iter().sum());
         }
         let (pw, ph) = (dw / cfg.supersample, dh / cfg.supersample);
@@ -302,6 +336,8 @@ struct Machine<'c> {
     fixed: Option<&'c FixedFormats>,
     /// Skip idle stretches ([`Engine::skip_idle`]).
     skip: bool,
+    /// Kernel setup's lines on a second thread ([`Engine::look_ahead`]).
+    look_ahead: bool,
     dram: Dram<Tag>,
     now: Cycle,
     port: MemPort,
@@ -471,11 +507,27 @@ impl Machine<'_> {
     }
 
     /// One reference warp: the phase list of the module doc, cycle by cycle.
-    fn run_warp(&mut self, f: &mut DestFrame, w: &WarpInput<'_>, buffer: &mut LineBuffer) {
-        let plan = WarpPlan::new(self.cfg, w, (f.width, f.height));
+    fn run_warp(&mut self, f: &mut DestFrame, w: &WarpInput<'_>, plan: &WarpPlan, buffer: &mut LineBuffer) {
         self.cache.begin_warp(w.number);
         let start = self.now;
-        let mut p = Pipeline::new(self.cfg, w, &plan, buffer, self.now, self.timeline.is_some());
+        std::thread::scope(|scope| {
+            let (sched, threshold) = (&plan.sched, self.cfg.threshold);
+            let kernels = LineKernels::new(w.r, w.tu, buffer, threshold);
+            let source = if self.look_ahead {
+                LineSource::Ahead(LinesAhead::spawn(scope, &sched.lines, &sched.need, kernels))
+            } else {
+                LineSource::Inline(kernels)
+            };
+            let p = Pipeline::new(self.cfg, w, plan, source, self.now, self.timeline.is_some());
+            self.clock_warp(f, plan, p);
+        });
+        if let Some(t) = &mut self.timeline {
+            t.warps.push((start, self.now));
+        }
+    }
+
+    /// Clock a warp's pipeline until every unit has finished it.
+    fn clock_warp(&mut self, f: &mut DestFrame, plan: &WarpPlan, mut p: Pipeline<'_>) {
         loop {
             let now = self.now;
             // 1–2. Memory: completions, then one request.
@@ -495,9 +547,10 @@ impl Machine<'_> {
             let (input, tiles) = (&mut p.stamps, &mut p.tiles);
             moved |= p.composite.tick(now, &mut CompositePorts { input, frame, cache, port, tiles }).moved;
             // 6. Raster.
+            let held = p.stamps.len();
             let (input, out) = (&mut p.kernels, &mut p.stamps);
             moved |= p.raster.tick(now, &mut RasterPorts { input, out, tiles }).moved;
-            prefetch_stamps(&p.stamps, frame);
+            prefetch_stamps(&p.stamps, held, frame);
             // 7. Kernel setup, then tile retirement.
             let (transform, fetch_interval) = (&mut p.transform, p.fetch.interval());
             let mut io = KernelSetupPorts { transform, fetch_interval, out: &mut p.kernels, tiles };
@@ -525,10 +578,7 @@ impl Machine<'_> {
                 }
             }
         }
-        p.finish(&plan, self);
-        if let Some(t) = &mut self.timeline {
-            t.warps.push((start, self.now));
-        }
+        p.finish(plan, self);
     }
 }
 
@@ -547,35 +597,54 @@ struct WarpPlan {
 }
 
 impl WarpPlan {
-    fn new(cfg: &EngineConfig, w: &WarpInput<'_>, (dw, dh): (u32, u32)) -> WarpPlan {
+    /// The plan of warp `w` into a `dw x dh` derived frame. With `split`,
+    /// the reference side (the schedule) and the derived side (the hole
+    /// fill's lines, release order and prefetch lists, and the working-set
+    /// model), which do not depend on each other, are made on two host
+    /// threads; the plan is the same either way.
+    fn new(cfg: &EngineConfig, w: &WarpInput<'_>, (dw, dh): (u32, u32), split: bool) -> WarpPlan {
         let size = (w.r.width, w.r.height);
-        let lines = warp_lines(size.0, size.1, &w.tu.setup.epipole_reference);
-        let sched = Schedule::new(size, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size, w.tu.fixed());
-        let params = HoleFillParams {
-            far_distance: cfg.hole_far_distance,
-            far_offset: cfg.hole_far_offset,
-            max_distance: cfg.hole_max_distance,
+        let schedule = || {
+            let lines = warp_lines(size.0, size.1, &w.tu.setup.epipole_reference);
+            Schedule::new(size, &w.r.depth, &w.tu.setup, lines, (dw, dh), cfg.tile_size, w.tu.fixed())
         };
-        let epipole: Epipole = w.tu.setup.epipole_derived;
-        let fill =
-            HoleFillUnit::new(dw, dh, &epipole, params).with_fixed(w.tu.fixed().map(|f| (f.colour, f.hole_weight)));
-        let taps = HoleFillUnit::tap_offsets(&params);
-        let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &taps);
-        // The prefetch's list for the hole fill (none without a prefetch).
-        let fill_first = if cfg.tile_prefetch_distance > 0 {
-            fill_first_lines(fill.lines(), (dw, dh), cfg.tile_size, &taps)
+        let derived = || {
+            let params = HoleFillParams {
+                far_distance: cfg.hole_far_distance,
+                far_offset: cfg.hole_far_offset,
+                max_distance: cfg.hole_max_distance,
+            };
+            let epipole: Epipole = w.tu.setup.epipole_derived;
+            let fill =
+                HoleFillUnit::new(dw, dh, &epipole, params).with_fixed(w.tu.fixed().map(|f| (f.colour, f.hole_weight)));
+            let taps = HoleFillUnit::tap_offsets(&params);
+            let releases = release_order(fill.lines(), (dw, dh), cfg.tile_size, &taps);
+            // The prefetch's list for the hole fill (none without a prefetch).
+            let fill_first = if cfg.tile_prefetch_distance > 0 {
+                fill_first_lines(fill.lines(), (dw, dh), cfg.tile_size, &taps)
+            } else {
+                Vec::new()
+            };
+            let working_set = crate::working_set::predict(
+                &w.tu.setup,
+                (&w.tu.reference_camera(), &w.dst),
+                size,
+                &w.r.depth,
+                fill.lines(),
+                cfg.kernel_limit,
+                cfg.tile_size,
+            );
+            (fill, releases, fill_first, working_set)
+        };
+        let (sched, (fill, releases, fill_first, working_set)) = if split {
+            std::thread::scope(|scope| {
+                let other = scope.spawn(derived);
+                let sched = schedule();
+                (sched, other.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            })
         } else {
-            Vec::new()
+            (schedule(), derived())
         };
-        let working_set = crate::working_set::predict(
-            &w.tu.setup,
-            (&w.tu.reference_camera(), &w.dst),
-            size,
-            &w.r.depth,
-            fill.lines(),
-            cfg.kernel_limit,
-            cfg.tile_size,
-        );
         let ring_of = (size.0, size.1, w.tu.setup.epipole_reference);
         WarpPlan { sched, fill, releases, fill_first, working_set, ring_of }
     }
@@ -639,7 +708,7 @@ impl<'s> Pipeline<'s> {
         cfg: &EngineConfig,
         w: &WarpInput<'s>,
         plan: &'s WarpPlan,
-        buffer: &'s mut LineBuffer,
+        lines: LineSource<'s>,
         now: Cycle,
         record: bool,
     ) -> Pipeline<'s> {
@@ -656,7 +725,7 @@ impl<'s> Pipeline<'s> {
         Pipeline {
             fetch: FetchStage::new(&sched.fetch, r, cache, thr, a()),
             transform: TransformStage::new(thr, cfg.transform_latency, r.grid.len(), a()),
-            kernel: KernelSetupStage::new(&sched.lines, &sched.need, r, tu, buffer, cfg.threshold, thr, a()),
+            kernel: KernelSetupStage::with_source(&sched.lines, &sched.need, r, lines, thr, a()),
             kernels: Fifo::new(2 * rate as usize, 1),
             raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate, a()),
             stamps: Fifo::new(2 * rate as usize, 1),

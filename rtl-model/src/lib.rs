@@ -22,6 +22,7 @@ pub mod engine;
 pub mod fifo;
 pub mod fixed;
 pub mod frame_stats;
+pub mod host_hint;
 pub mod hw_reference;
 pub mod knob;
 pub mod lru;

@@ -19,6 +19,7 @@ use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::fifo::Fifo;
 use postwarp_rtl::units::kernel_setup::{Kernel, KernelSetupPorts, KernelSetupStage};
 use postwarp_rtl::units::line_buffer::LineBuffer;
+use postwarp_rtl::units::line_kernels::{LineKernels, LineSource, LinesAhead};
 use postwarp_rtl::units::tile_manager::TileManager;
 use postwarp_rtl::units::transform::{InFlightSample, TransformStage};
 use postwarp_rtl::units::{StallReason, Tick, UnitState};
@@ -225,4 +226,85 @@ fn a_culled_sample_takes_an_emission_slot_but_yields_no_kernel() {
     assert_eq!(kernels + culled, live_samples, "every valid sample of a live line takes a slot");
     assert_eq!(busy, live_samples.div_ceil(2), "a culled sample takes a slot of the 2 lanes");
     assert_eq!(out.counters().pushes, kernels, "a culled sample yields no kernel");
+}
+
+/// The kernels (as printed: `Kernel` has no equality), cycle and state of
+/// every tick of a stage run to the end, 3 lanes, a FIFO of 4 the test
+/// drains every other cycle.
+fn run_to_end(k: &mut KernelSetupStage<'_>, w: &Warp) -> Vec<(u64, UnitState, Vec<String>)> {
+    let s = &w.sched;
+    let mut t = all_transformed(&streamed(&w.r, &w.cfg, &s.fetch));
+    let mut out: Fifo<Kernel> = Fifo::new(4, 1);
+    let mut tiles = TileManager::new(s.lines.len(), &s.retire);
+    let mut log = Vec::new();
+    for c in 1..10_000u64 {
+        let io = &mut Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
+        let state = tick(k, Cycle(c), s.fetch.len(), io).state;
+        let popped: Vec<String> = if c % 2 == 0 {
+            std::iter::from_fn(|| out.pop(Cycle(c))).map(|kern| format!("{kern:?}")).collect()
+        } else {
+            Vec::new()
+        };
+        log.push((c, state, popped));
+        if k.is_done() && out.is_empty() {
+            return log;
+        }
+    }
+    panic!("kernel setup never finished");
+}
+
+#[test]
+fn lines_computed_on_the_look_ahead_thread_leave_in_the_same_cycles_with_the_same_bits() {
+    // Holes and a slanted depth: discontinuities, forward edges, culling.
+    let img = image(W, H, |x, y| ((x * y) % 5 != 1).then_some((3.0 + 0.4 * x as f32, [0.1 * y as f32, 0.5, 0.2])));
+    let w = Warp::new(&img, DVec3::new(0.3, -0.2, 0.4), 0.2, config());
+    let s = &w.sched;
+    let mut buffer = LineBuffer::default();
+    let mut k =
+        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 3, activity(Cycle(0)));
+    let inline = run_to_end(&mut k, &w);
+    let mut buffer = LineBuffer::default();
+    let ahead = std::thread::scope(|scope| {
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let source = LineSource::Ahead(LinesAhead::spawn(scope, &s.lines, &s.need, kernels));
+        let mut k = KernelSetupStage::with_source(&s.lines, &s.need, &w.r, source, 3, activity(Cycle(0)));
+        run_to_end(&mut k, &w)
+    });
+    let kernels: usize = inline.iter().map(|t| t.2.len()).sum();
+    assert!(kernels > 20, "the warp sets up kernels ({kernels})");
+    assert_eq!(inline, ahead);
+}
+
+/// A stage whose schedule claims every fetch interval done while the
+/// transform unit has streamed nothing reads unstreamed samples.
+fn read_before_streamed(ahead: bool) {
+    let w = sideways(&plane(W, H, 5.0));
+    let s = &w.sched;
+    let mut t = TransformStage::new(4, 0, grid_len(W, H), activity(Cycle(0)));
+    let mut out: Fifo<Kernel> = Fifo::new(4, 1);
+    let mut tiles = TileManager::new(s.lines.len(), &s.retire);
+    let mut buffer = LineBuffer::default();
+    std::thread::scope(|scope| {
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let source = if ahead {
+            LineSource::Ahead(LinesAhead::spawn(scope, &s.lines, &s.need, kernels))
+        } else {
+            LineSource::Inline(kernels)
+        };
+        let mut k = KernelSetupStage::with_source(&s.lines, &s.need, &w.r, source, 4, activity(Cycle(0)));
+        let io = &mut Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
+        tick(&mut k, Cycle(1), s.fetch.len(), io);
+    });
+}
+
+#[test]
+#[should_panic(expected = "before it was transformed")]
+fn reading_a_sample_not_streamed_panics_when_lines_are_computed_inline() {
+    read_before_streamed(false);
+}
+
+#[test]
+#[should_panic(expected = "before it was transformed")]
+fn reading_a_sample_not_streamed_panics_when_lines_are_computed_ahead() {
+    read_before_streamed(true);
 }

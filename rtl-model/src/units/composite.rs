@@ -159,12 +159,12 @@ fn stamp_tiles(c: &DestCache, job: &Stamped) -> ([u32; 4], usize) {
 }
 
 /// Host speed only: ask the host CPU to fetch the planes of the rows of
-/// every stamp in `input`, which the compositor reaches next cycle (the
-/// engine calls it after the rasterizer's tick). No value or timing
-/// depends on it.
+/// the stamps in `input` from the `from`-th held on (the engine calls it
+/// after the rasterizer's tick, with the count held before it, so each
+/// stamp is fetched once, as it enters). No value or timing depends on it.
 #[inline]
-pub fn prefetch_stamps(input: &Fifo<Stamped>, frame: &DestFrame) {
-    for k in 0..input.len() {
+pub fn prefetch_stamps(input: &Fifo<Stamped>, from: usize, frame: &DestFrame) {
+    for k in from..input.len() {
         let Some(job) = input.held(k) else { break };
         let x = job.stamp.x.0.max(0) as u32;
         for row in job.stamp.y.0.max(0)..=job.stamp.y.1 {

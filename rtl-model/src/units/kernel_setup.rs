@@ -45,16 +45,17 @@
 //! Not modelled: line-buffer capacity stalls (the buffer is sized for the
 //! longest line of the reference).
 
-use super::line_buffer::{LineBuffer, Sources, at};
+use super::line_buffer::LineBuffer;
+use super::line_kernels::{Emit, LineKernels, LineSource, LineWork};
 use super::tile_manager::TileManager;
 use super::transform::{TransformStage, TransformUnit, Transformed};
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::camera::Epipole;
 use crate::clock::Cycle;
 use crate::fifo::Fifo;
-use crate::hw_reference::{HwReference, RefSample};
+use crate::hw_reference::HwReference;
 use crate::qformat::QFormat;
-use crate::traversal::{Line, Major};
+use crate::traversal::Line;
 use glam::DVec2;
 
 /// Why a 2x2 group's corner is not shared.
@@ -256,34 +257,24 @@ pub struct KernelSetupPorts<'a> {
     pub tiles: &'a mut TileManager,
 }
 
-/// What kernel setup emits for one valid sample of a line.
-#[derive(Clone, Copy, Debug)]
-enum Emit {
-    /// Behind the derived camera: takes a slot, no kernel.
-    Culled,
-    /// A kernel for the rasterizer.
-    Kernel(Kernel),
-}
+/// Emissions ahead of the next one that kernel setup asks the host to
+/// fetch (a host hint, no model effect).
+const EMITS_AHEAD: usize = 6;
 
 /// Kernel setup's control for one warp (rule 6).
 pub struct KernelSetupStage<'s> {
     lines: &'s [Line],
     need: &'s [Option<usize>],
     reference: &'s HwReference,
-    tu: &'s TransformUnit,
-    buffer: &'s mut LineBuffer,
-    threshold: f64,
     lanes: usize,
     line: usize,
+    /// Where the lines' kernels are computed (`units::line_kernels`).
+    source: LineSource<'s>,
     /// The current line's emissions (its valid samples in visiting order)
-    /// once its kernels are computed, and how many have been emitted.
-    emits: Vec<Emit>,
+    /// once taken from `source`, and how many have been emitted.
+    work: LineWork,
     computed: bool,
     next_emit: usize,
-    /// Host scratch: the current line's reference records, gathered before
-    /// its kernels are computed (a column sheet's records are a row apart;
-    /// independent loads overlap their misses). No model state.
-    recs_run: Vec<RefSample>,
     kernels: u64,
     culled: u64,
     activity: Activity,
@@ -292,7 +283,7 @@ pub struct KernelSetupStage<'s> {
 impl<'s> KernelSetupStage<'s> {
     /// Kernel setup over the schedule's `lines` (and their `need`) of a warp
     /// of `reference` by `tu`, `lanes` kernels per cycle, accounted by
-    /// `activity`.
+    /// `activity`; it computes each line's kernels when it reaches it.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         lines: &'s [Line],
@@ -304,20 +295,30 @@ impl<'s> KernelSetupStage<'s> {
         lanes: u32,
         activity: Activity,
     ) -> Self {
-        buffer.begin_warp(reference.width, reference.height);
+        let source = LineSource::Inline(LineKernels::new(reference, tu, buffer, threshold));
+        Self::with_source(lines, need, reference, source, lanes, activity)
+    }
+
+    /// [`KernelSetupStage::new`], taking the lines' kernels from `source`
+    /// (which must compute them for the same `lines` and `reference`).
+    pub fn with_source(
+        lines: &'s [Line],
+        need: &'s [Option<usize>],
+        reference: &'s HwReference,
+        source: LineSource<'s>,
+        lanes: u32,
+        activity: Activity,
+    ) -> Self {
         KernelSetupStage {
             lines,
             need,
             reference,
-            tu,
-            buffer,
-            threshold,
             lanes: lanes as usize,
             line: 0,
-            emits: Vec::new(),
+            source,
+            work: LineWork::default(),
             computed: false,
             next_emit: 0,
-            recs_run: Vec::new(),
             kernels: 0,
             culled: 0,
             activity,
@@ -363,9 +364,14 @@ impl<'s> KernelSetupStage<'s> {
                 break;
             }
             if !self.computed {
-                self.compute_line(io.transform);
+                self.take_line(io.transform);
             }
-            let Some(e) = self.emits.get(self.next_emit) else {
+            // Host hint: the emissions were written by the look-ahead
+            // thread, on another core; fetch a few ahead of their use.
+            let ahead = self.work.emits.as_ptr().wrapping_add(self.next_emit + EMITS_AHEAD);
+            crate::host_hint::prefetch(ahead);
+            crate::host_hint::prefetch(ahead.cast::<u8>().wrapping_add(64));
+            let Some(e) = self.work.emits.get(self.next_emit) else {
                 self.next_line();
                 continue;
             };
@@ -388,87 +394,25 @@ impl<'s> KernelSetupStage<'s> {
         self.activity.record(now, t)
     }
 
-    /// The kernels of the current line's valid samples, in visiting order
-    /// (rules 1–5): a pure function of the reference and the warp, so the
-    /// host computes the whole line when kernel setup first reaches it.
-    fn compute_line(&mut self, transform: &TransformStage) {
-        let l = self.lines[self.line];
-        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
-        let src = Sources { tu, r, transform, threshold };
-        let (major, c) = (l.major, l.line as i64);
-        let (lo, hi) = (l.lo as i64, l.hi as i64);
-        let buf = &mut *self.buffer;
-        for line in [c - 1, c, c + 1] {
-            buf.fill_warps(src, major, line, lo - 1, hi + 1);
-        }
-        for line in [c - 1, c] {
-            buf.fill_groups(src, major, line, lo - 1, hi);
-        }
-        self.emits.clear();
-        self.emits.reserve(l.len() as usize);
-        let epipole = &tu.setup.epipole_reference;
-        let len = match major {
-            Major::Row => r.width as i64,
-            Major::Column => r.height as i64,
-        };
-        let wcur = buf.warp_row(major, c).expect("the current line is on the image");
-        let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];
-        let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
-        let group = |row: Option<&[Option<Group>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
-        let recs = r.line_recs(major, l.line);
-        self.recs_run.clear();
-        self.recs_run.extend((lo..=hi).map(|a| *recs.at(a as usize)));
-        for k in 0..l.len() as i64 {
-            let a = if l.step > 0 { lo + k } else { hi - k };
-            let (x, y) = at(major, c, a);
-            if !r.valid_at(r.grid.index(x, y)) {
-                continue;
+    /// The current line's kernels (rules 1–5, `units::line_kernels`), and
+    /// the line buffer's check that every valid sample they read has been
+    /// streamed by the transform unit (`line_buffer` rule 4).
+    ///
+    /// # Panics
+    /// If the schedule lets kernel setup read a sample before the
+    /// transform unit streamed it.
+    fn take_line(&mut self, transform: &TransformStage) {
+        self.source.take(self.line, self.lines[self.line], &mut self.work);
+        let r = self.reference;
+        for f in &self.work.fresh {
+            for a in f.a0..=f.a1 {
+                let (x, y) = super::line_buffer::at(f.major, f.line, a);
+                let gi = r.grid.index(x, y);
+                assert!(
+                    !r.valid_at(gi) || transform.has_transformed(gi),
+                    "line buffer read ({x}, {y}) before it was transformed"
+                );
             }
-            let Some(t) = wcur[a as usize] else {
-                self.emits.push(Emit::Culled);
-                continue;
-            };
-            // Corner order: (x-1, y-1), (x, y-1), (x-1, y), (x, y).
-            let groups = match major {
-                Major::Row => [group(gprev, a - 1), group(gprev, a), group(gcur, a - 1), group(gcur, a)],
-                Major::Column => [group(gprev, a - 1), group(gcur, a - 1), group(gprev, a), group(gcur, a)],
-            };
-            let rec = self.recs_run[(a - lo) as usize];
-            let src_inv_z = r.inv_z(&rec);
-            let (corners, _, [ts, ks]) = corners_counted(tu, &t, x, y, src_inv_z, rec.slopes, groups);
-            // Rule 5: a forward edge takes its backward neighbour's colour.
-            let mut fill_colour = rec.colour;
-            if let Some((dx, dy)) = backward_step(epipole, x, y) {
-                let (dl, da) = match major {
-                    Major::Row => (dy as i64, dx as i64),
-                    Major::Column => (dx as i64, dy as i64),
-                };
-                let an = a + da;
-                if let Some(row) = neighbours[(dl + 1) as usize]
-                    && (0..len).contains(&an)
-                    && let Some(tn) = row[an as usize]
-                {
-                    let (nx, ny) = at(major, c + dl, an);
-                    let nk = r.rec(nx, ny);
-                    // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
-                    let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
-                    if nk.z > rec.z && !same_surface(&t, &tn, offset, threshold) {
-                        fill_colour = nk.colour;
-                    }
-                }
-            }
-            self.emits.push(Emit::Kernel(Kernel {
-                line: self.line as u32,
-                sample: (x, y),
-                pos: t.pos,
-                inv_z: t.inv_z,
-                corners_box: bounding_box(&corners),
-                colour: rec.colour,
-                fill_colour,
-                src_inv_z,
-                src_slopes: rec.slopes,
-                sat: [t.sat + ts, ks],
-            }));
         }
         self.computed = true;
     }

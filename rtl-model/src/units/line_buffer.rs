@@ -25,16 +25,17 @@
 //! 3. A group is named by its top-left sample `(gx, gy)` in image
 //!    coordinates, and covers `gx..=gx+1 × gy..=gy+1`; groups reaching past
 //!    the image do not exist.
-//! 4. Computing the transform of a valid sample checks that the transform
-//!    unit has streamed it in this warp (a schedule that lets kernel setup
-//!    read ahead of the fetch plan is a bug, and panics).
+//! 4. Every position computed is listed once ([`LineBuffer::take_fresh`]),
+//!    so that kernel setup can check that the transform unit has streamed
+//!    each valid sample before it reads it (a schedule that lets kernel
+//!    setup read ahead of the fetch plan is a bug, and panics).
 //!
 //! Not modelled: capacity stalls (the buffer is sized for the longest line
 //! of the reference), its write port (the transform's results arrive
 //! through the transform pipeline, which is timed).
 
 use super::kernel_setup::{Group, group_in};
-use super::transform::{TransformStage, TransformUnit, Transformed};
+use super::transform::{TransformUnit, Transformed};
 use crate::hw_reference::HwReference;
 use crate::traversal::Major;
 
@@ -93,6 +94,23 @@ pub struct LineBuffer {
     /// independent loads overlap their misses where the incremental warp's
     /// chain would wait on each). No model state.
     inv_z_run: Vec<f64>,
+    /// The runs of warped positions computed since the last
+    /// [`LineBuffer::take_fresh`] (rule 4).
+    fresh: Vec<Fresh>,
+}
+
+/// A run of positions whose warps the buffer computed: positions `a0..=a1`
+/// of line `line` along `major` (rule 4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Fresh {
+    /// The line's axis.
+    pub major: Major,
+    /// The line.
+    pub line: i64,
+    /// First position.
+    pub a0: i64,
+    /// Last position (inclusive).
+    pub a1: i64,
 }
 
 /// What the buffer reads to compute its contents.
@@ -102,8 +120,6 @@ pub struct Sources<'a> {
     pub tu: &'a TransformUnit,
     /// The reference.
     pub r: &'a HwReference,
-    /// The transform pipeline (which samples it has streamed).
-    pub transform: &'a TransformStage,
     /// Discontinuity threshold (ratio of E).
     pub threshold: f64,
 }
@@ -118,6 +134,7 @@ impl LineBuffer {
         }
         self.warp_no += 1;
         self.size = (w, h);
+        self.fresh.clear();
     }
 
     /// Lines and positions per line along `major`.
@@ -155,14 +172,19 @@ impl LineBuffer {
             s.tu.warp_run((x0 as f64, y0 as f64), step, |k| run[k], out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {
                 let (x, y) = at(major, line, a);
-                let gi = s.r.grid.index(x, y);
-                if s.r.valid_at(gi) {
-                    assert!(s.transform.has_transformed(gi), "line buffer read ({x}, {y}) before it was transformed");
-                } else {
+                if !s.r.valid_at(s.r.grid.index(x, y)) {
                     *o = None;
                 }
             }
+            self.fresh.push(Fresh { major, line, a0: b0, a1: b1 });
         }
+    }
+
+    /// The runs of positions warped since the last call (rule 4), moved
+    /// into `out` (cleared first).
+    pub fn take_fresh(&mut self, out: &mut Vec<Fresh>) {
+        out.clear();
+        out.append(&mut self.fresh);
     }
 
     /// Make sure group line `line` (groups whose top-left sample is on line

@@ -23,6 +23,7 @@ pub mod fetch;
 pub mod hole_fill;
 pub mod kernel_setup;
 pub mod line_buffer;
+pub mod line_kernels;
 pub mod packer;
 pub mod raster;
 pub mod resolve;
