@@ -9,7 +9,7 @@
 //! last warp the display reads the frame (`units::display`) and the
 //! display controller resolves it (`units::resolve`).
 //!
-//! Phase order within a cycle ([`Machine::run_warp`]: one call per phase;
+//! Phase order within a cycle ([`Machine::clock_warp`]: one call per phase;
 //! downstream first, so a FIFO of latency L sustains its rate with L slots
 //! per lane):
 //! 1. DRAM tick; completions delivered (source blocks, tiles).
@@ -44,6 +44,11 @@
 //! visible, the packer finishing); the skipped cycles are charged to each
 //! unit's state of that cycle, so cycle counts stay exact while idle time
 //! costs no host time.
+//!
+//! Host threads ([`Engine::look_ahead`], on by default on a multi-core
+//! host): kernel setup's lines (`units::line_kernels`) and the next warp's
+//! plan, pure functions of their inputs, are computed on a second host
+//! thread; every value and counter is the same as on one thread.
 //!
 //! Rules:
 //! 1. Warps run one after another: a warp starts when the previous one has

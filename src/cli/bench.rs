@@ -262,7 +262,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     );
     let mut rows = Vec::new();
 
-    // Engines, one thread, frames in memory.
+    // Engines, one thread (the hardware model also as it runs by default),
+    // frames in memory.
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("one-thread pool")?;
     let gcfg = GoldenConfig::default();
     let prepared: Vec<PreparedReference> =
@@ -310,20 +311,29 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let hw: Vec<HwReference> = frame.refs.iter().map(|i| HwReference::new(i, &cfg)).collect();
         let hw: Vec<&HwReference> = hw.iter().collect();
         let mut engine = Engine::new(cfg).map_err(|e| anyhow::anyhow!("mark1998: {e}"))?;
-        let t = pool.install(|| {
-            repeat(repeats, true, || {
-                black_box(engine.run_frame(&frame.cmd, &hw).stats.cycles);
-                Ok(())
-            })
-        })?;
-        rows.push(Row {
-            what: "engine hardware-model".into(),
-            input: frame_name.clone(),
-            threads: 1,
-            times: t,
-            samples: valid,
-            peak: None,
-        });
+        // As the engine runs by default (kernel setup's lines computed on a
+        // second thread where there is a second core), then all on one.
+        let ahead = cores > 1;
+        for (what, look_ahead, threads) in [
+            ("engine hardware-model", ahead, if ahead { 2 } else { 1 }),
+            ("engine hardware-model one-thread", false, 1),
+        ] {
+            engine.look_ahead(look_ahead);
+            let t = pool.install(|| {
+                repeat(repeats, true, || {
+                    black_box(engine.run_frame(&frame.cmd, &hw).stats.cycles);
+                    Ok(())
+                })
+            })?;
+            rows.push(Row {
+                what: what.into(),
+                input: frame_name.clone(),
+                threads,
+                times: t,
+                samples: valid,
+                peak: None,
+            });
+        }
     }
 
     // Whole processes of this binary.

@@ -62,8 +62,8 @@ pub struct LineWork {
 /// Emissions the look-ahead thread gathers before it hands a batch of whole
 /// lines over (rule 2): one hand-over, and one wake-up of a waiting thread,
 /// per batch rather than per line, and host memory bounded whatever the
-/// frame size (about 4 MB per batch).
-pub const EMITS_PER_BATCH: usize = 1 << 15;
+/// frame size (about 2 MB per batch: 16 K emissions of 128 bytes; 2^13 to 2^15 ran the bench frame equally fast, 2^12 and 2^16 slower).
+pub const EMITS_PER_BATCH: usize = 1 << 14;
 
 /// Batches the look-ahead thread may have ready beyond the one kernel setup
 /// is taking from (rule 2).
