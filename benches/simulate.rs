@@ -11,8 +11,8 @@
 //! configuration is the `mark1998` preset, and beside it `one-lane`: the
 //! preset as it was before issue 14's sizing (one sample, rectangle and
 //! hole-fill sample per clock, 576 KiB of destination cache, no tile
-//! prefetch, no miss queue), so that host speed can be compared on the
-//! same simulated machine across versions.
+//! prefetch, no miss queue), on one thread, so that host speed can be
+//! compared on the same simulated machine across versions.
 //!
 //! Run: `cargo bench --bench simulate`. Criterion prints the time per
 //! frame; the cycles per frame are printed once before measuring, so
@@ -48,16 +48,18 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10);
     g.sampling_mode(SamplingMode::Flat);
     g.measurement_time(Duration::from_secs(20));
-    let ahead = std::thread::available_parallelism().is_ok_and(|n| n.get() > 1);
+    // `None`: the engine's default.
     for (name, cfg, look_ahead) in [
-        ("mark1998", EngineConfig::default(), ahead),
-        ("mark1998-one-thread", EngineConfig::default(), false),
-        ("one-lane", one_lane(), ahead),
+        ("mark1998", EngineConfig::default(), None),
+        ("mark1998-one-thread", EngineConfig::default(), Some(false)),
+        ("one-lane", one_lane(), Some(false)),
     ] {
         let refs: Vec<HwReference> = imgs.iter().map(|i| HwReference::new(i, &cfg)).collect();
         let refs: Vec<&HwReference> = refs.iter().collect();
         let mut engine = Engine::new(cfg).expect("the configuration validates");
-        engine.look_ahead(look_ahead);
+        if let Some(on) = look_ahead {
+            engine.look_ahead(on);
+        }
         let t = Instant::now();
         let out = engine.run_frame(&cmd, &refs);
         let s = t.elapsed().as_secs_f64();

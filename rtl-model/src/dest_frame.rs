@@ -109,17 +109,17 @@ impl DestFrame {
     #[inline(always)]
     pub fn prefetch(&self, i: usize) {
         if i < self.len() {
-            use crate::host_hint::prefetch as at;
-            at(self.colour[i..].as_ptr());
-            at(self.inv_z[i..].as_ptr());
-            at(self.slopes[i..].as_ptr());
-            at(self.source[i..].as_ptr());
-            at(self.fill_colour[i..].as_ptr());
-            at(self.fill_distance[i..].as_ptr());
-            at(self.fill_weight[i..].as_ptr());
+            use crate::host_hint::prefetch;
+            prefetch(self.colour[i..].as_ptr());
+            prefetch(self.inv_z[i..].as_ptr());
+            prefetch(self.slopes[i..].as_ptr());
+            prefetch(self.source[i..].as_ptr());
+            prefetch(self.fill_colour[i..].as_ptr());
+            prefetch(self.fill_distance[i..].as_ptr());
+            prefetch(self.fill_weight[i..].as_ptr());
             let word = i / usize::BITS as usize;
             for bits in [&self.real, &self.hole, &self.fill_valid] {
-                at(bits.as_raw_slice()[word..].as_ptr());
+                prefetch(bits.as_raw_slice()[word..].as_ptr());
             }
         }
     }

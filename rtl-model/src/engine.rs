@@ -19,7 +19,8 @@
 //! 5. Composite (`units::composite`).
 //! 6. Raster (`units::raster`), then a host-speed hint that changes
 //!    nothing in the model: the host CPU is asked to fetch the planes of
-//!    the stamps the compositor reaches next cycle
+//!    the stamps that entered the stamp FIFO this cycle, which the
+//!    compositor reaches from the next cycle on
 //!    (`units::composite::prefetch_stamps`).
 //! 7. Kernel setup (`units::kernel_setup`), then the tile manager's
 //!    retirement (`units::tile_manager`), then the schedule's tile
@@ -46,9 +47,11 @@
 //! costs no host time.
 //!
 //! Host threads ([`Engine::look_ahead`], on by default on a multi-core
-//! host): kernel setup's lines (`units::line_kernels`) and the next warp's
-//! plan, pure functions of their inputs, are computed on a second host
-//! thread; every value and counter is the same as on one thread.
+//! host): kernel setup's lines (`units::line_kernels`) and the warp plans,
+//! pure functions of their inputs, are computed on other host threads
+//! while the clocked loop runs (during a warp: one for the lines, one for
+//! the next warp's plan); every value and counter is the same as on one
+//! thread.
 //!
 //! Rules:
 //! 1. Warps run one after another: a warp starts when the previous one has
@@ -131,8 +134,8 @@ pub struct Engine {
     record: bool,
     record_requests: bool,
     skip: bool,
-    /// Compute kernel setup's lines on a second host thread
-    /// ([`Engine::look_ahead`]).
+    /// Compute kernel setup's lines and the warp plans on other host
+    /// threads ([`Engine::look_ahead`]).
     look_ahead: bool,
     /// The DRAM backend of `dram_backend` other than `ideal`, one per frame.
     backend: Option<DramBackendFactory>,
@@ -205,13 +208,20 @@ impl Engine {
     }
 
     /// Compute kernel setup's lines (pure functions of the reference and
-    /// the warp) on a second host thread, ahead of the clocked loop
-    /// (`units::line_kernels`), or on the loop's own thread when it reaches
-    /// them. Values, cycles and every counter are the same either way
-    /// (`tests/hw_engine.rs`); only host time differs. On by default when
-    /// the host has more than one core.
+    /// the warp) on another host thread, ahead of the clocked loop
+    /// (`units::line_kernels`), and the next warp's plan during the
+    /// current warp (the first warp's two halves at once); or all on the
+    /// loop's own thread, each line when kernel setup reaches it. Values,
+    /// cycles and every counter are the same either way
+    /// (`tests/hw_look_ahead.rs`); only host time differs. On by default
+    /// when the host has more than one core.
     pub fn look_ahead(&mut self, on: bool) {
         self.look_ahead = on;
+    }
+
+    /// Whether [`Engine::look_ahead`] is on.
+    pub fn looks_ahead(&self) -> bool {
+        self.look_ahead
     }
 
     /// The configuration.
@@ -341,7 +351,8 @@ struct Machine<'c> {
     fixed: Option<&'c FixedFormats>,
     /// Skip idle stretches ([`Engine::skip_idle`]).
     skip: bool,
-    /// Kernel setup's lines on a second thread ([`Engine::look_ahead`]).
+    /// Kernel setup's lines and the warp plans on other host threads
+    /// ([`Engine::look_ahead`]).
     look_ahead: bool,
     dram: Dram<Tag>,
     now: Cycle,
@@ -511,17 +522,18 @@ impl Machine<'_> {
         Some(p.changed_pixels().clone())
     }
 
-    /// One reference warp: the phase list of the module doc, cycle by cycle.
+    /// One reference warp: its line source (on another host thread with
+    /// the look-ahead), then [`Machine::clock_warp`].
     fn run_warp(&mut self, f: &mut DestFrame, w: &WarpInput<'_>, plan: &WarpPlan, buffer: &mut LineBuffer) {
         self.cache.begin_warp(w.number);
         let start = self.now;
         std::thread::scope(|scope| {
             let (sched, threshold) = (&plan.sched, self.cfg.threshold);
-            let kernels = LineKernels::new(w.r, w.tu, buffer, threshold);
+            let line_kernels = LineKernels::new(w.r, w.tu, buffer, threshold);
             let source = if self.look_ahead {
-                LineSource::Ahead(LinesAhead::spawn(scope, &sched.lines, &sched.need, kernels))
+                LineSource::Ahead(LinesAhead::spawn(scope, &sched.lines, &sched.need, line_kernels))
             } else {
-                LineSource::Inline(kernels)
+                LineSource::Inline(line_kernels)
             };
             let p = Pipeline::new(self.cfg, w, plan, source, self.now, self.timeline.is_some());
             self.clock_warp(f, plan, p);
@@ -713,7 +725,7 @@ impl<'s> Pipeline<'s> {
         cfg: &EngineConfig,
         w: &WarpInput<'s>,
         plan: &'s WarpPlan,
-        lines: LineSource<'s>,
+        line_source: LineSource<'s>,
         now: Cycle,
         record: bool,
     ) -> Pipeline<'s> {
@@ -730,7 +742,7 @@ impl<'s> Pipeline<'s> {
         Pipeline {
             fetch: FetchStage::new(&sched.fetch, r, cache, thr, a()),
             transform: TransformStage::new(thr, cfg.transform_latency, r.grid.len(), a()),
-            kernel: KernelSetupStage::with_source(&sched.lines, &sched.need, r, lines, thr, a()),
+            kernel: KernelSetupStage::with_source(&sched.lines, &sched.need, r, line_source, thr, a()),
             kernels: Fifo::new(2 * rate as usize, 1),
             raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate, a()),
             stamps: Fifo::new(2 * rate as usize, 1),

@@ -71,6 +71,35 @@ impl Grid {
         self.tiles_x * self.tiles_y * 64
     }
 
+    /// The grid words (8x8 tiles) a run of positions `a0..=a1` on line
+    /// `line` along `major` crosses, each with the mask of the run's bits
+    /// in it, in order along the run.
+    pub(crate) fn run_words(&self, major: Major, line: u32, a0: u32, a1: u32) -> impl Iterator<Item = (usize, u64)> {
+        let (tiles_x, l) = (self.tiles_x, line as usize);
+        (a0 >> 3..=a1 >> 3).map(move |t| {
+            let t = t as usize;
+            let (lo, hi) = ((a0 as usize).max(t << 3) & 7, (a1 as usize).min((t << 3) + 7) & 7);
+            // Bits lo..=hi of an 8-bit row or column.
+            let span = (0xffu64 >> (7 - hi)) & !((1u64 << lo) - 1);
+            match major {
+                // A row of the tile: byte (line & 7), bits lo..=hi.
+                Major::Row => ((l >> 3) * tiles_x + t, span << ((l & 7) * 8)),
+                // A column of the tile: bit (line & 7) of bytes lo..=hi.
+                Major::Column => {
+                    let bytes = (0..8).filter(|b| span >> b & 1 != 0).fold(0u64, |m, b| m | 0xff << (b * 8));
+                    (t * tiles_x + (l >> 3), bytes & 0x0101_0101_0101_0101u64 << (l & 7))
+                }
+            }
+        })
+    }
+
+    /// The sample of bit `bit` of grid word `w` (the inverse of
+    /// [`Grid::index`]).
+    pub(crate) fn position(&self, w: usize, bit: u32) -> (u32, u32) {
+        let (tx, ty) = ((w % self.tiles_x) as u32, (w / self.tiles_x) as u32);
+        (tx * 8 + (bit & 7), ty * 8 + (bit >> 3))
+    }
+
     #[inline(always)]
     pub(crate) fn index(&self, x: u32, y: u32) -> usize {
         (((y >> 3) as usize * self.tiles_x + (x >> 3) as usize) << 6) | ((y & 7) << 3 | (x & 7)) as usize
@@ -129,6 +158,12 @@ impl HwReference {
     #[inline(always)]
     pub(crate) fn valid_at(&self, gi: usize) -> bool {
         self.valid_tiles[gi >> 6] >> (gi & 63) & 1 != 0
+    }
+
+    /// The valid bits of grid word `w` (one 8x8 tile, [`Grid`]).
+    #[inline(always)]
+    pub(crate) fn valid_word(&self, w: usize) -> u64 {
+        self.valid_tiles[w]
     }
 
     /// The records of line `line` along `major` (row `line`, or column
@@ -255,4 +290,39 @@ fn quantise_expanded(rec: &mut RefSample, x: u32, y: u32, f: &FixedFormats, sat:
     }
     f.ref_inv_z.q(1.0 / rec.z as f64, sat);
     Some(f.ref_inv_z.quantise(1.0 / rec.z as f64).0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::BTreeSet;
+
+    /// Every run on every line of a 20x13 grid: the words and masks of
+    /// `run_words` name exactly the bits `index` gives its positions, and
+    /// `position` inverts them.
+    #[test]
+    fn a_runs_words_hold_exactly_its_positions_bits() {
+        let (w, h) = (20u32, 13u32);
+        let g = Grid::new(w, h);
+        for major in [Major::Row, Major::Column] {
+            let (lines, len) = if major == Major::Row { (h, w) } else { (w, h) };
+            for line in 0..lines {
+                for a0 in 0..len {
+                    for a1 in a0..len {
+                        let at = |a: u32| if major == Major::Row { (a, line) } else { (line, a) };
+                        let want: BTreeSet<usize> = (a0..=a1).map(at).map(|(x, y)| g.index(x, y)).collect();
+                        let mut got = BTreeSet::new();
+                        for (word, mask) in g.run_words(major, line, a0, a1) {
+                            for bit in (0..64).filter(|b| mask >> b & 1 != 0) {
+                                assert!(got.insert(word * 64 + bit as usize), "{major:?} {line} {a0}..={a1}");
+                                let (x, y) = g.position(word, bit);
+                                assert_eq!(g.index(x, y), word * 64 + bit as usize);
+                            }
+                        }
+                        assert_eq!(got, want, "{major:?} line {line}, {a0}..={a1}");
+                    }
+                }
+            }
+        }
+    }
 }

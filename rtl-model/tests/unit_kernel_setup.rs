@@ -308,3 +308,34 @@ fn reading_a_sample_not_streamed_panics_when_lines_are_computed_inline() {
 fn reading_a_sample_not_streamed_panics_when_lines_are_computed_ahead() {
     read_before_streamed(true);
 }
+
+/// A panic on the look-ahead thread (here: a line off the image, which
+/// kernel setup's line computation refuses) reaches the stage with the
+/// thread's own message, not a hang or a message about a closed channel.
+#[test]
+#[should_panic(expected = "the current line is on the image")]
+fn a_panic_on_the_look_ahead_thread_reaches_kernel_setup_with_its_message() {
+    let w = sideways(&plane(W, H, 5.0));
+    let s = &w.sched;
+    let off = postwarp_rtl::traversal::Line {
+        sheet: 0,
+        major: postwarp_rtl::traversal::Major::Row,
+        line: H + 3,
+        lo: 0,
+        hi: 3,
+        step: 1,
+        line_step: 1,
+    };
+    let (lines, need) = ([off], [Some(0)]);
+    let mut t = all_transformed(&streamed(&w.r, &w.cfg, &s.fetch));
+    let mut out: Fifo<Kernel> = Fifo::new(4, 1);
+    let mut tiles = TileManager::new(1, &s.retire);
+    let mut buffer = LineBuffer::default();
+    std::thread::scope(|scope| {
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let source = LineSource::Ahead(LinesAhead::spawn(scope, &lines, &need, kernels));
+        let mut k = KernelSetupStage::with_source(&lines, &need, &w.r, source, 4, activity(Cycle(0)));
+        let io = &mut Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
+        tick(&mut k, Cycle(1), 1, io);
+    });
+}

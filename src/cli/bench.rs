@@ -7,8 +7,11 @@
 //!    `Warper::warp_frame` on the A-buffered references, `forward-splat`
 //!    is `forward_splat_with` on the same references and 1/Z planes,
 //!    `hardware-model` is `Engine::run_frame` (preset mark1998) on the
-//!    references packed once. Their samples are the valid samples of both
-//!    references after the A-buffer.
+//!    references packed once, as the engine runs by default (its
+//!    look-ahead threads on a multi-core host: 2 threads), and
+//!    `hardware-model one-thread` the same with `Engine::look_ahead(false)`.
+//!    Their samples are the valid samples of both references after the
+//!    A-buffer.
 //! 2. Process rows time a child process of this same binary from spawn to
 //!    exit with every core: `golden` on the real pair (`--real-pair`,
 //!    default `traces/motorcycle`), without and with `--flip` (what
@@ -311,9 +314,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         let hw: Vec<HwReference> = frame.refs.iter().map(|i| HwReference::new(i, &cfg)).collect();
         let hw: Vec<&HwReference> = hw.iter().collect();
         let mut engine = Engine::new(cfg).map_err(|e| anyhow::anyhow!("mark1998: {e}"))?;
-        // As the engine runs by default (kernel setup's lines computed on a
-        // second thread where there is a second core), then all on one.
-        let ahead = cores > 1;
+        // As the engine runs by default (kernel setup's lines computed on
+        // another thread where there is a second core), then all on one.
+        let ahead = engine.looks_ahead();
         for (what, look_ahead, threads) in [
             ("engine hardware-model", ahead, if ahead { 2 } else { 1 }),
             ("engine hardware-model one-thread", false, 1),

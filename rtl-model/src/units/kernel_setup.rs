@@ -366,8 +366,8 @@ impl<'s> KernelSetupStage<'s> {
             if !self.computed {
                 self.take_line(io.transform);
             }
-            // Host hint: the emissions were written by the look-ahead
-            // thread, on another core; fetch a few ahead of their use.
+            // Host hint: fetch the emissions a few ahead of their use (with
+            // the look-ahead they were written on another core).
             let ahead = self.work.emits.as_ptr().wrapping_add(self.next_emit + EMITS_AHEAD);
             crate::host_hint::prefetch(ahead);
             crate::host_hint::prefetch(ahead.cast::<u8>().wrapping_add(64));
@@ -404,14 +404,14 @@ impl<'s> KernelSetupStage<'s> {
     fn take_line(&mut self, transform: &TransformStage) {
         self.source.take(self.line, self.lines[self.line], &mut self.work);
         let r = self.reference;
-        for f in &self.work.fresh {
-            for a in f.a0..=f.a1 {
-                let (x, y) = super::line_buffer::at(f.major, f.line, a);
-                let gi = r.grid.index(x, y);
-                assert!(
-                    !r.valid_at(gi) || transform.has_transformed(gi),
-                    "line buffer read ({x}, {y}) before it was transformed"
-                );
+        for f in &self.work.warped {
+            // Eight positions at a time: a run's bits in each 8x8 grid word.
+            for (w, mask) in r.grid.run_words(f.major, f.line as u32, f.a0 as u32, f.a1 as u32) {
+                let unstreamed = r.valid_word(w) & !transform.transformed_word(w) & mask;
+                if unstreamed != 0 {
+                    let (x, y) = r.grid.position(w, unstreamed.trailing_zeros());
+                    panic!("line buffer read ({x}, {y}) before it was transformed");
+                }
             }
         }
         self.computed = true;

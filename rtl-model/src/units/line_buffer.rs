@@ -25,7 +25,7 @@
 //! 3. A group is named by its top-left sample `(gx, gy)` in image
 //!    coordinates, and covers `gx..=gx+1 × gy..=gy+1`; groups reaching past
 //!    the image do not exist.
-//! 4. Every position computed is listed once ([`LineBuffer::take_fresh`]),
+//! 4. Every position computed is listed once ([`LineBuffer::take_warped`]),
 //!    so that kernel setup can check that the transform unit has streamed
 //!    each valid sample before it reads it (a schedule that lets kernel
 //!    setup read ahead of the fetch plan is a bug, and panics).
@@ -95,14 +95,14 @@ pub struct LineBuffer {
     /// chain would wait on each). No model state.
     inv_z_run: Vec<f64>,
     /// The runs of warped positions computed since the last
-    /// [`LineBuffer::take_fresh`] (rule 4).
-    fresh: Vec<Fresh>,
+    /// [`LineBuffer::take_warped`] (rule 4).
+    warped: Vec<WarpedRun>,
 }
 
 /// A run of positions whose warps the buffer computed: positions `a0..=a1`
 /// of line `line` along `major` (rule 4).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Fresh {
+pub struct WarpedRun {
     /// The line's axis.
     pub major: Major,
     /// The line.
@@ -134,7 +134,7 @@ impl LineBuffer {
         }
         self.warp_no += 1;
         self.size = (w, h);
-        self.fresh.clear();
+        self.warped.clear();
     }
 
     /// Lines and positions per line along `major`.
@@ -176,15 +176,15 @@ impl LineBuffer {
                     *o = None;
                 }
             }
-            self.fresh.push(Fresh { major, line, a0: b0, a1: b1 });
+            self.warped.push(WarpedRun { major, line, a0: b0, a1: b1 });
         }
     }
 
     /// The runs of positions warped since the last call (rule 4), moved
     /// into `out` (cleared first).
-    pub fn take_fresh(&mut self, out: &mut Vec<Fresh>) {
+    pub fn take_warped(&mut self, out: &mut Vec<WarpedRun>) {
         out.clear();
-        out.append(&mut self.fresh);
+        out.append(&mut self.warped);
     }
 
     /// Make sure group line `line` (groups whose top-left sample is on line

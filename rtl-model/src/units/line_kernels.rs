@@ -1,6 +1,6 @@
-//! Kernel setup's datapath over one traversal line: the kernels of the
-//! line's valid samples in visiting order (rules 1–5 of
-//! `units::kernel_setup`), and where the host computes them.
+//! Kernel setup's line computation and where the host runs it: the
+//! kernels of a traversal line's valid samples in visiting order (rules
+//! 1–5 of `units::kernel_setup`, whose datapath functions it calls).
 //!
 //! Job: turn a schedule line into its emissions (a kernel, or a culled
 //! slot, per valid sample), reading the reference records and the line
@@ -18,28 +18,30 @@
 //! Rules:
 //! 1. Lines are computed in schedule order, skipping dead lines (no
 //!    `need`), each exactly once per warp, so the line buffer's contents
-//!    and the fresh runs are the same whoever computes them.
+//!    and the warped runs are the same whoever computes them.
 //! 2. Two hosts of the same values: [`LineSource::Inline`] computes a line
 //!    when kernel setup first reaches it; [`LineSource::Ahead`] computes
-//!    the lines on a second host thread ([`LinesAhead`]), handing them
-//!    over in batches of about [`EMITS_PER_BATCH`] emissions, at most
+//!    the lines on another host thread ([`LinesAhead`]), handing them
+//!    over in batches of about [`SLOTS_PER_BATCH`] samples, at most
 //!    [`BATCHES_AHEAD`] batches ahead, and kernel setup takes them in
-//!    order.
-//!    Both give the same emissions bit for bit (`tests/hw_engine.rs`).
-//! 3. Kernel setup checks a line's fresh runs against the transform
+//!    order. Both give the same emissions bit for bit
+//!    (`rtl-model/tests/unit_kernel_setup.rs`, `tests/hw_look_ahead.rs`).
+//! 3. Kernel setup checks a line's warped runs against the transform
 //!    unit's streamed samples when it takes the line, in either mode
 //!    (`line_buffer` rule 4).
+//! 4. A panic on the look-ahead thread reaches kernel setup when it next
+//!    takes a line, with the thread's own message.
 //!
 //! Not modelled: nothing of the hardware; this is the host's schedule of
 //! a pure computation.
 
 use super::kernel_setup::{Kernel, backward_step, bounding_box, corners_counted, same_surface};
-use super::line_buffer::{Fresh, LineBuffer, Sources, at};
+use super::line_buffer::{LineBuffer, Sources, WarpedRun, at};
 use super::transform::TransformUnit;
 use crate::hw_reference::{HwReference, RefSample};
 use crate::traversal::{Line, Major};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel, sync_channel};
-use std::thread::Scope;
+use std::thread::{Scope, ScopedJoinHandle};
 
 /// What kernel setup emits for one valid sample of a line.
 #[derive(Clone, Copy, Debug)]
@@ -53,17 +55,22 @@ pub enum Emit {
 /// One line's results.
 #[derive(Debug, Default)]
 pub struct LineWork {
+    /// The line's number in the schedule.
+    pub index: usize,
     /// The emissions of its valid samples, in visiting order.
     pub emits: Vec<Emit>,
     /// The runs of positions the line buffer warped for it (rule 3).
-    pub fresh: Vec<Fresh>,
+    pub warped: Vec<WarpedRun>,
 }
 
-/// Emissions the look-ahead thread gathers before it hands a batch of whole
-/// lines over (rule 2): one hand-over, and one wake-up of a waiting thread,
-/// per batch rather than per line, and host memory bounded whatever the
-/// frame size (about 2 MB per batch: 16 K emissions of 128 bytes; 2^13 to 2^15 ran the bench frame equally fast, 2^12 and 2^16 slower).
-pub const EMITS_PER_BATCH: usize = 1 << 14;
+/// Samples (line positions, whether valid or not: the room each line's
+/// emissions reserve) the look-ahead thread gathers before it hands a batch
+/// of whole lines over (rule 2): one hand-over, and one wake-up of a
+/// waiting thread, per batch rather than per line, and host memory bounded
+/// whatever the frame size (at most about 2 MB of emissions of 128 bytes
+/// per batch, beyond its last line; 2^13 to 2^15 ran the bench frame
+/// equally fast, 2^12 and 2^16 slower).
+pub const SLOTS_PER_BATCH: usize = 1 << 14;
 
 /// Batches the look-ahead thread may have ready beyond the one kernel setup
 /// is taking from (rule 2).
@@ -103,7 +110,8 @@ impl<'s> LineKernels<'s> {
         for line in [c - 1, c] {
             buf.fill_groups(src, major, line, lo - 1, hi);
         }
-        buf.take_fresh(&mut out.fresh);
+        buf.take_warped(&mut out.warped);
+        out.index = index;
         let emits = &mut out.emits;
         emits.clear();
         emits.reserve(l.len() as usize);
@@ -175,7 +183,7 @@ impl<'s> LineKernels<'s> {
 }
 
 /// The look-ahead thread's ends held by kernel setup (rule 2).
-pub struct LinesAhead {
+pub struct LinesAhead<'scope> {
     /// Batches of computed lines, in schedule order (live lines only).
     lines: Receiver<Vec<LineWork>>,
     /// The batch being taken from, and the next line in it; taken lines
@@ -184,33 +192,35 @@ pub struct LinesAhead {
     next: usize,
     /// Spent batches back to the thread, to be refilled.
     spent: Sender<Vec<LineWork>>,
+    /// The thread, joined if it stops early (rule 4).
+    thread: Option<ScopedJoinHandle<'scope, ()>>,
 }
 
-impl LinesAhead {
+impl<'scope> LinesAhead<'scope> {
     /// Start computing the live lines of `lines` (those with a `need`) with
     /// `kernels` on a thread of `scope`. The thread stops after the last
-    /// line, or as soon as the returned ends are dropped.
-    pub fn spawn<'scope, 'env>(
+    /// line, or at its next hand-over once the returned ends are dropped.
+    pub fn spawn<'env>(
         scope: &'scope Scope<'scope, 'env>,
         lines: &'env [Line],
         need: &'env [Option<usize>],
         mut kernels: LineKernels<'env>,
-    ) -> LinesAhead {
+    ) -> LinesAhead<'scope> {
         let (tx, rx): (SyncSender<Vec<LineWork>>, _) = sync_channel(BATCHES_AHEAD);
         let (spent, spent_rx) = channel::<Vec<LineWork>>();
-        scope.spawn(move || {
+        let thread = scope.spawn(move || {
             let mut live = lines.iter().enumerate().filter(|&(i, _)| need[i].is_some());
             loop {
                 let mut batch = spent_rx.try_recv().unwrap_or_default();
-                let (mut n, mut emits) = (0, 0);
-                while emits < EMITS_PER_BATCH
+                let (mut n, mut slots) = (0, 0);
+                while slots < SLOTS_PER_BATCH
                     && let Some((i, l)) = live.next()
                 {
                     if n == batch.len() {
                         batch.push(LineWork::default());
                     }
                     kernels.compute(i, *l, &mut batch[n]);
-                    emits += batch[n].emits.len();
+                    slots += l.len() as usize;
                     n += 1;
                 }
                 batch.truncate(n);
@@ -219,7 +229,7 @@ impl LinesAhead {
                 }
             }
         });
-        LinesAhead { lines: rx, batch: Vec::new(), next: 0, spent }
+        LinesAhead { lines: rx, batch: Vec::new(), next: 0, spent, thread: Some(thread) }
     }
 
     /// The next computed line into `work` (its old contents go back).
@@ -230,7 +240,13 @@ impl LinesAhead {
                 // The thread may have finished: then the batch is dropped.
                 let _ = self.spent.send(spent);
             }
-            self.batch = self.lines.recv().expect("the kernel look-ahead thread stopped early");
+            self.batch = match self.lines.recv() {
+                Ok(batch) => batch,
+                Err(_) => match self.thread.take().map(ScopedJoinHandle::join) {
+                    Some(Err(panic)) => std::panic::resume_unwind(panic),
+                    _ => panic!("the kernel look-ahead thread stopped before the last line"),
+                },
+            };
             self.next = 0;
         }
         std::mem::swap(work, &mut self.batch[self.next]);
@@ -243,19 +259,19 @@ pub enum LineSource<'s> {
     /// Computed on kernel setup's own thread when reached.
     Inline(LineKernels<'s>),
     /// Computed ahead on another thread.
-    Ahead(LinesAhead),
+    Ahead(LinesAhead<'s>),
 }
 
 impl LineSource<'_> {
     /// Line `l` (number `index`, live) into `work`, replacing its contents.
     ///
     /// # Panics
-    /// If the look-ahead thread stopped early (it panicked: its panic
-    /// follows when the scope joins it).
+    /// With the look-ahead thread's panic if it panicked (rule 4).
     pub fn take(&mut self, index: usize, l: Line, work: &mut LineWork) {
         match self {
             LineSource::Inline(k) => k.compute(index, l, work),
             LineSource::Ahead(a) => a.take(work),
         }
+        debug_assert_eq!(work.index, index, "lines are taken in the order they were computed");
     }
 }

@@ -2,7 +2,8 @@
 //! the engine (`crate::engine`).
 //!
 //! Each unit file holds the unit's datapath (pure functions of its inputs)
-//! and its control: a `*Stage` struct that owns the unit's control state
+//! and its control (kernel setup's line computation, which the host may run
+//! ahead on another thread, is in `line_kernels`): a `*Stage` struct that owns the unit's control state
 //! (cursors, registers, counters) and exposes one clocked entry point,
 //! `tick(now, ports) -> Tick`, where the ports struct names every wire the
 //! unit reads or drives for that cycle. The engine owns the clock and the

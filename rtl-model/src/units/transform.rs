@@ -425,6 +425,13 @@ impl TransformStage {
         self.transformed[grid_index >> 6] >> (grid_index & 63) & 1 != 0
     }
 
+    /// The accepted bits of grid word `w` (one 8x8 tile of the
+    /// reference's host layout).
+    #[inline(always)]
+    pub(crate) fn transformed_word(&self, w: usize) -> u64 {
+        self.transformed[w]
+    }
+
     /// The stage's state in cycle `now`, after the fetch unit's offers of
     /// that cycle.
     #[inline]
