@@ -35,6 +35,7 @@ pub mod stats;
 pub mod timeline;
 pub mod traversal;
 pub mod units;
+pub mod warp_plan;
 pub mod working_set;
 
 pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
