@@ -1,32 +1,17 @@
-//! Kernel setup's lines computed on a second host thread
+//! Kernel setup's lines computed on another host thread
 //! (`Engine::look_ahead(true)`, the default on a multi-core host) give the
 //! same planes, pixels and every counter as computing each line on the
 //! clocked loop's thread when kernel setup reaches it
 //! (`units::line_kernels`, rule 2), on every bundled trace, at the default
 //! configuration, a small-cache one and the fixed-point datapath.
 
-use postwarp::trace::Trace;
+use crate::common::engine_runs::run_frames;
 use postwarp_rtl::config::EngineConfig;
-use postwarp_rtl::engine::{Engine, FrameOutput, HwReference};
-use std::path::PathBuf;
+use postwarp_rtl::engine::FrameOutput;
 
-/// The first `frames` frames of `trace` under `cfg`, with the look-ahead
-/// thread or without.
+/// The first `frames` frames of `trace` under `cfg`, with the look-ahead thread or without.
 fn run(trace: &str, cfg: &EngineConfig, frames: usize, ahead: bool) -> Vec<FrameOutput> {
-    let t = Trace::open(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("traces").join(trace)).unwrap();
-    let cfg = EngineConfig { supersample: t.display.supersample, ..cfg.clone() };
-    let mut engine = Engine::new(cfg.clone()).unwrap();
-    engine.look_ahead(ahead);
-    (0..frames.min(t.derived.len()))
-        .map(|k| {
-            let refs: Vec<HwReference> = t.derived[k]
-                .references
-                .iter()
-                .map(|&r| HwReference::new(&t.load_reference(r).unwrap().samples, &cfg))
-                .collect();
-            engine.run_frame(&t.frame_commands(k), &refs.iter().collect::<Vec<_>>())
-        })
-        .collect()
+    run_frames(trace, cfg, frames, |e| e.look_ahead(ahead))
 }
 
 fn check(trace: &str, frames: usize) {

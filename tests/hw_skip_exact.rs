@@ -7,27 +7,13 @@
 //! knows of (a request queued in a stalled cycle, an item in transit
 //! behind a blocked FIFO head), makes the skipping version differ here.
 
-use postwarp::trace::Trace;
+use crate::common::engine_runs::run_frames;
 use postwarp_rtl::config::EngineConfig;
-use postwarp_rtl::engine::{Engine, FrameOutput, HwReference};
-use std::path::PathBuf;
+use postwarp_rtl::engine::FrameOutput;
 
 /// The first `frames` frames of `trace` under `cfg`, skipping or stepping.
 fn run(trace: &str, cfg: &EngineConfig, frames: usize, skip: bool) -> Vec<FrameOutput> {
-    let t = Trace::open(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("traces").join(trace)).unwrap();
-    let cfg = EngineConfig { supersample: t.display.supersample, ..cfg.clone() };
-    let mut engine = Engine::new(cfg.clone()).unwrap();
-    engine.skip_idle(skip);
-    (0..frames.min(t.derived.len()))
-        .map(|k| {
-            let refs: Vec<HwReference> = t.derived[k]
-                .references
-                .iter()
-                .map(|&r| HwReference::new(&t.load_reference(r).unwrap().samples, &cfg))
-                .collect();
-            engine.run_frame(&t.frame_commands(k), &refs.iter().collect::<Vec<_>>())
-        })
-        .collect()
+    run_frames(trace, cfg, frames, |e| e.skip_idle(skip))
 }
 
 fn check(trace: &str, frames: usize) {

@@ -4,6 +4,7 @@
 //! `golden_general.rs`.
 #![allow(dead_code)]
 
+pub mod engine_runs;
 pub mod fifo;
 pub mod props;
 
