@@ -58,10 +58,10 @@ fn assert_identical(what: &str, g: &GoldenFrame, h: &FrameOutput) {
     let d = &g.samples;
     let diff = (0..d.len())
         .filter(|&i| {
-            d.colour[i] != h.frame.colour[i]
+            d.colour[i] != h.frame.samples[i].colour
                 || d.real[i] != h.frame.real[i]
                 || d.hole[i] != h.frame.hole[i]
-                || (d.real[i] && d.inv_z[i] != h.frame.inv_z[i])
+                || (d.real[i] && d.inv_z[i] != h.frame.samples[i].inv_z)
         })
         .count();
     assert_eq!(diff, 0, "{what}: {diff} samples differ between hardware and golden");

@@ -244,16 +244,16 @@ fn dest_diffs(a: &DestFrame, b: &DestPlanes) -> Vec<usize> {
     assert_eq!((a.width, a.height), (b.width, b.height));
     (0..a.len())
         .filter(|&i| {
-            a.colour[i].map(f32::to_bits) != b.colour[i].map(f32::to_bits)
-                || a.inv_z[i].to_bits() != b.inv_z[i].to_bits()
-                || a.slopes[i].map(f32::to_bits) != b.slopes[i].map(f32::to_bits)
-                || a.source[i] != b.source[i]
+            a.samples[i].colour.map(f32::to_bits) != b.colour[i].map(f32::to_bits)
+                || a.samples[i].inv_z.to_bits() != b.inv_z[i].to_bits()
+                || a.samples[i].slopes.map(f32::to_bits) != b.slopes[i].map(f32::to_bits)
+                || a.samples[i].source != b.source[i]
                 || a.hole[i] != b.hole[i]
                 || a.real[i] != b.real[i]
-                || a.fill_colour[i].map(f32::to_bits) != b.fill_colour[i].map(f32::to_bits)
+                || a.samples[i].fill_colour.map(f32::to_bits) != b.fill_colour[i].map(f32::to_bits)
                 || a.fill_valid[i] != b.fill_valid[i]
-                || a.fill_distance[i] != b.fill_distance[i]
-                || a.fill_weight[i].to_bits() != b.fill_weight[i].to_bits()
+                || a.samples[i].fill_distance != b.fill_distance[i]
+                || a.samples[i].fill_weight.to_bits() != b.fill_weight[i].to_bits()
         })
         .collect()
 }

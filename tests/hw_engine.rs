@@ -23,10 +23,10 @@ fn compare(trace: &str, frames: &[usize], cfg: EngineConfig) {
         let d = &g.samples;
         let mut diff = 0;
         for i in 0..d.len() {
-            let same = d.colour[i] == h.frame.colour[i]
+            let same = d.colour[i] == h.frame.samples[i].colour
                 && d.real[i] == h.frame.real[i]
                 && d.hole[i] == h.frame.hole[i]
-                && (!d.real[i] || d.inv_z[i] == h.frame.inv_z[i]);
+                && (!d.real[i] || d.inv_z[i] == h.frame.samples[i].inv_z);
             if !same {
                 if diff < 5 {
                     eprintln!(
@@ -38,8 +38,8 @@ fn compare(trace: &str, frames: &[usize], cfg: EngineConfig) {
                         d.inv_z[i],
                         d.real[i],
                         d.hole[i],
-                        h.frame.colour[i],
-                        h.frame.inv_z[i],
+                        h.frame.samples[i].colour,
+                        h.frame.samples[i].inv_z,
                         h.frame.real[i],
                         h.frame.hole[i]
                     );

@@ -107,11 +107,11 @@ fn the_fallback_leaves_no_empty_sample_and_both_models_agree_bit_for_bit() {
         }
         let hw = hardware(&cfg, &img, &cmd, true);
         assert_eq!(hw.stats.empty_samples, 0, "{name}");
-        assert_eq!(bits(&hw.frame.colour), bits(&g.samples.colour), "{name}: colour plane");
+        assert_eq!(bits(&hw.frame.plane(|s| s.colour)), bits(&g.samples.colour), "{name}: colour plane");
         assert_eq!(hw.frame.hole, g.samples.hole, "{name}: hole plane");
         assert_eq!(hw.frame.real, g.samples.real, "{name}: real plane");
         let w = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        assert_eq!(w(&hw.frame.fill_weight), w(&g.samples.fill_weight), "{name}: weights");
+        assert_eq!(w(&hw.frame.plane(|s| s.fill_weight)), w(&g.samples.fill_weight), "{name}: weights");
         assert_eq!(bits(&hw.pixels), bits(&g.pixels), "{name}: pixels");
         assert_eq!(hw.unseen, g.unseen, "{name}: unseen pixels");
         let s = &hw.stats;

@@ -33,7 +33,11 @@ fn check(trace: &str, frames: usize) {
             let diff: Vec<_> = fa.iter().zip(&fb).filter(|(x, y)| x != y).take(8).collect();
             assert!(diff.is_empty() && fa.len() == fb.len(), "{trace} {name} frame {k}: skipped vs stepped {diff:?}");
             assert_eq!(a.pixels, b.pixels, "{trace} {name} frame {k}: pixels");
-            assert_eq!(a.frame.colour, b.frame.colour, "{trace} {name} frame {k}: colour plane");
+            assert_eq!(
+                a.frame.plane(|s| s.colour),
+                b.frame.plane(|s| s.colour),
+                "{trace} {name} frame {k}: colour plane"
+            );
         }
     }
 }

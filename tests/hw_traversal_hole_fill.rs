@@ -211,22 +211,25 @@ fn bits3(v: &[[f32; 3]]) -> Vec<[u32; 3]> {
 fn assert_same(d: &DestPlanes, f: &DestFrame, ctx: &str) {
     assert_eq!((d.width, d.height), (f.width, f.height), "{ctx}");
     let first = |a: &[[u32; 3]], b: &[[u32; 3]]| a.iter().zip(b).position(|(x, y)| x != y);
-    if let Some(i) = first(&bits3(&d.colour), &bits3(&f.colour)) {
-        panic!("{ctx}: colour of sample {i}: golden {:?}, hardware {:?}", d.colour[i], f.colour[i]);
+    if let Some(i) = first(&bits3(&d.colour), &bits3(&f.plane(|s| s.colour))) {
+        panic!("{ctx}: colour of sample {i}: golden {:?}, hardware {:?}", d.colour[i], f.samples[i].colour);
     }
-    if let Some(i) = first(&bits3(&d.fill_colour), &bits3(&f.fill_colour)) {
-        panic!("{ctx}: fill colour of sample {i}: golden {:?}, hardware {:?}", d.fill_colour[i], f.fill_colour[i]);
+    if let Some(i) = first(&bits3(&d.fill_colour), &bits3(&f.plane(|s| s.fill_colour))) {
+        panic!(
+            "{ctx}: fill colour of sample {i}: golden {:?}, hardware {:?}",
+            d.fill_colour[i], f.samples[i].fill_colour
+        );
     }
     let w = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-    assert_eq!(w(&d.fill_weight), w(&f.fill_weight), "{ctx}: fill weight");
-    assert_eq!(w(&d.inv_z), w(&f.inv_z), "{ctx}: inv_z");
+    assert_eq!(w(&d.fill_weight), w(&f.plane(|s| s.fill_weight)), "{ctx}: fill weight");
+    assert_eq!(w(&d.inv_z), w(&f.plane(|s| s.inv_z)), "{ctx}: inv_z");
     let s = |v: &[[f32; 2]]| v.iter().map(|c| c.map(f32::to_bits)).collect::<Vec<_>>();
-    assert_eq!(s(&d.slopes), s(&f.slopes), "{ctx}: slopes");
-    assert_eq!(d.source, f.source, "{ctx}: source");
+    assert_eq!(s(&d.slopes), s(&f.plane(|s| s.slopes)), "{ctx}: slopes");
+    assert_eq!(d.source, f.plane(|s| s.source), "{ctx}: source");
     assert_eq!(d.hole, f.hole, "{ctx}: hole");
     assert_eq!(d.real, f.real, "{ctx}: real");
     assert_eq!(d.fill_valid, f.fill_valid, "{ctx}: fill valid");
-    assert_eq!(d.fill_distance, f.fill_distance, "{ctx}: fill distance");
+    assert_eq!(d.fill_distance, f.plane(|s| s.fill_distance), "{ctx}: fill distance");
 }
 
 /// One pass on each side (after each side's per-warp reset); the planes

@@ -64,11 +64,11 @@ fn run(start: Start, cands: &[Cand]) -> (DestPlanes, DestFrame) {
         d.hole.set(0, true);
         f.hole.set(0, true);
         d.colour[0] = colour;
-        f.colour[0] = colour;
+        f.samples[0].colour = colour;
         d.inv_z[0] = inv_z;
-        f.inv_z[0] = inv_z;
+        f.samples[0].inv_z = inv_z;
         d.fill_weight[0] = 0.5;
-        f.fill_weight[0] = 0.5;
+        f.samples[0].fill_weight = 0.5;
     }
     for c in cands {
         gc::composite(&mut d, 0, &golden(c), SLOPE_TOL, REL_TOL);
@@ -95,13 +95,13 @@ fn stored_golden(d: &DestPlanes) -> Stored {
 
 fn stored_hardware(f: &DestFrame) -> Stored {
     (
-        f.colour[0].map(f32::to_bits),
-        f.inv_z[0].to_bits(),
-        f.slopes[0].map(f32::to_bits),
-        f.source[0],
+        f.samples[0].colour.map(f32::to_bits),
+        f.samples[0].inv_z.to_bits(),
+        f.samples[0].slopes.map(f32::to_bits),
+        f.samples[0].source,
         f.real[0],
         f.hole[0],
-        f.fill_weight[0].to_bits(),
+        f.samples[0].fill_weight.to_bits(),
     )
 }
 
@@ -156,7 +156,7 @@ proptest! {
         let (d, f) = run(Start::Hole(hole_colour, hole_inv_z), &cands[..1]);
         let c = cands[0];
         prop_assert_eq!((d.colour[0], d.inv_z[0], d.real[0], d.hole[0]), (c.colour, c.inv_z, true, false));
-        prop_assert_eq!((f.colour[0], f.inv_z[0], f.real[0], f.hole[0]), (c.colour, c.inv_z, true, false));
+        prop_assert_eq!((f.samples[0].colour, f.samples[0].inv_z, f.real[0], f.hole[0]), (c.colour, c.inv_z, true, false));
         let (d, f) = run(Start::Hole(hole_colour, hole_inv_z), &cands);
         prop_assert!(d.real[0] && !d.hole[0] && f.real[0] && !f.hole[0]);
         prop_assert_eq!(d.fill_weight[0], 0.0, "a real surface carries no hole-fill weight");
@@ -172,7 +172,7 @@ proptest! {
     ) {
         let (d, f) = run(s, &cands);
         prop_assert_eq!(stored_golden(&d), stored_hardware(&f));
-        prop_assert_eq!(d.fill_colour[0].map(f32::to_bits), f.fill_colour[0].map(f32::to_bits));
-        prop_assert_eq!((d.fill_valid[0], d.fill_distance[0]), (f.fill_valid[0], f.fill_distance[0]));
+        prop_assert_eq!(d.fill_colour[0].map(f32::to_bits), f.samples[0].fill_colour.map(f32::to_bits));
+        prop_assert_eq!((d.fill_valid[0], d.fill_distance[0]), (f.fill_valid[0], f.samples[0].fill_distance));
     }
 }

@@ -165,9 +165,14 @@ fn bits(d: &DestPlanes) -> Vec<u32> {
 fn frame_bits(f: &DestFrame) -> Vec<u32> {
     let mut v = Vec::new();
     for i in 0..f.len() {
-        v.extend(f.colour[i].map(f32::to_bits));
-        v.extend(f.fill_colour[i].map(f32::to_bits));
-        v.extend([f.fill_valid[i] as u32, f.fill_distance[i] as u32, f.hole[i] as u32, f.fill_weight[i].to_bits()]);
+        v.extend(f.samples[i].colour.map(f32::to_bits));
+        v.extend(f.samples[i].fill_colour.map(f32::to_bits));
+        v.extend([
+            f.fill_valid[i] as u32,
+            f.samples[i].fill_distance as u32,
+            f.hole[i] as u32,
+            f.samples[i].fill_weight.to_bits(),
+        ]);
     }
     v
 }
@@ -212,9 +217,9 @@ proptest! {
             if before.real[i] {
                 prop_assert!(!g.hole[i] && !f.hole[i], "a real sample became a hole: {}", ctx);
                 prop_assert_eq!(g.colour[i], before.colour[i]);
-                prop_assert_eq!(f.colour[i], before.colour[i]);
+                prop_assert_eq!(f.samples[i].colour, before.colour[i]);
                 prop_assert_eq!((g.inv_z[i], g.slopes[i], g.source[i]), (before.inv_z[i], before.slopes[i], before.source[i]));
-                prop_assert_eq!((f.inv_z[i], f.slopes[i], f.source[i]), (before.inv_z[i], before.slopes[i], before.source[i]));
+                prop_assert_eq!((f.samples[i].inv_z, f.samples[i].slopes, f.samples[i].source), (before.inv_z[i], before.slopes[i], before.source[i]));
             }
         }
     }

@@ -147,9 +147,9 @@ proptest! {
         for i in 0..f.len() {
             if covered.contains(&i) {
                 prop_assert!(f.real[i]);
-                prop_assert_eq!((f.colour[i], f.inv_z[i], f.slopes[i], f.source[i]), (colour, inv_z, slopes, 0));
+                prop_assert_eq!((f.samples[i].colour, f.samples[i].inv_z, f.samples[i].slopes, f.samples[i].source), (colour, inv_z, slopes, 0));
             } else {
-                prop_assert!(!f.real[i] && f.colour[i] == [0.0; 3] && f.inv_z[i] == 0.0);
+                prop_assert!(!f.real[i] && f.samples[i].colour == [0.0; 3] && f.samples[i].inv_z == 0.0);
             }
         }
     }

@@ -25,36 +25,47 @@
 //! Not modelled: the mesh/splat bit of TR98 §7.1 (the hardware draws only
 //! the anti-aliased flat rectangles of §7.2).
 
-use crate::bits;
 use bitvec::vec::BitVec;
 
-/// Per-sample planes of a derived frame, row-major (`y·width + x`).
+/// The word planes of one derived-frame sample (planes 1–4, 6, 8 and 9),
+/// kept together: the compositor writes all of them when it wins a sample,
+/// and stored side by side they share one or two host cache lines where
+/// seven separate arrays needed seven (a host layout only: no value or
+/// cycle depends on it).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DestSample {
+    /// Plane 1: linear RGB.
+    pub colour: [f32; 3],
+    /// Plane 2: derived-camera 1/Z (1/scene unit).
+    pub inv_z: f32,
+    /// Plane 3: slopes of 1/Z per derived sample step.
+    pub slopes: [f32; 2],
+    /// Plane 6: hole-fill colour.
+    pub fill_colour: [f32; 3],
+    /// Plane 9: accumulated hole-fill weight (Σ 1/distance).
+    pub fill_weight: f32,
+    /// Plane 4: index (in the frame's warp list) of the reference that wrote it.
+    pub source: u8,
+    /// Plane 8: hole-fill distance (samples, saturating).
+    pub fill_distance: u8,
+}
+
+/// Per-sample planes of a derived frame, row-major (`y·width + x`): the
+/// word planes per sample, the flag planes as bit planes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DestFrame {
     /// Width (samples).
     pub width: u32,
     /// Height (samples).
     pub height: u32,
-    /// Plane 1: linear RGB.
-    pub colour: Vec<[f32; 3]>,
-    /// Plane 2: derived-camera 1/Z (1/scene unit).
-    pub inv_z: Vec<f32>,
-    /// Plane 3: slopes of 1/Z per derived sample step.
-    pub slopes: Vec<[f32; 2]>,
-    /// Plane 4: index (in the frame's warp list) of the reference that wrote it.
-    pub source: Vec<u8>,
+    /// Planes 1–4, 6, 8 and 9 of each sample.
+    pub samples: Vec<DestSample>,
     /// Plane 5: colour comes from hole fill.
     pub hole: BitVec,
     /// A real surface sample.
     pub real: BitVec,
-    /// Plane 6: hole-fill colour.
-    pub fill_colour: Vec<[f32; 3]>,
     /// Plane 7: hole-fill colour valid.
     pub fill_valid: BitVec,
-    /// Plane 8: hole-fill distance (samples, saturating).
-    pub fill_distance: Vec<u8>,
-    /// Plane 9: accumulated hole-fill weight (Σ 1/distance).
-    pub fill_weight: Vec<f32>,
 }
 
 impl DestFrame {
@@ -64,27 +75,26 @@ impl DestFrame {
         DestFrame {
             width,
             height,
-            colour: vec![[0.0; 3]; n],
-            inv_z: vec![0.0; n],
-            slopes: vec![[0.0; 2]; n],
-            source: vec![0; n],
+            samples: vec![DestSample::default(); n],
             hole: BitVec::repeat(false, n),
             real: BitVec::repeat(false, n),
-            fill_colour: vec![[0.0; 3]; n],
             fill_valid: BitVec::repeat(false, n),
-            fill_distance: vec![0; n],
-            fill_weight: vec![0.0; n],
         }
+    }
+
+    /// One plane of every sample, in sample order (for reports and tests).
+    pub fn plane<T>(&self, field: impl Fn(&DestSample) -> T) -> Vec<T> {
+        self.samples.iter().map(field).collect()
     }
 
     /// Number of samples.
     pub fn len(&self) -> usize {
-        self.colour.len()
+        self.samples.len()
     }
 
     /// True if there are no samples.
     pub fn is_empty(&self) -> bool {
-        self.colour.is_empty()
+        self.samples.is_empty()
     }
 
     /// Linear index of sample `(x, y)`.
@@ -98,8 +108,9 @@ impl DestFrame {
     pub fn begin_warp_sample(&mut self, i: usize) {
         let real = self.real[i];
         self.fill_valid.set(i, real);
-        self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
-        self.fill_distance[i] = 0;
+        let s = &mut self.samples[i];
+        s.fill_colour = if real { s.colour } else { [0.0; 3] };
+        s.fill_distance = 0;
     }
 
     /// Ask the host CPU to bring sample `i`'s planes into its cache (a hint:
@@ -110,13 +121,7 @@ impl DestFrame {
     pub fn prefetch(&self, i: usize) {
         if i < self.len() {
             use crate::host_hint::prefetch;
-            prefetch(self.colour[i..].as_ptr());
-            prefetch(self.inv_z[i..].as_ptr());
-            prefetch(self.slopes[i..].as_ptr());
-            prefetch(self.source[i..].as_ptr());
-            prefetch(self.fill_colour[i..].as_ptr());
-            prefetch(self.fill_distance[i..].as_ptr());
-            prefetch(self.fill_weight[i..].as_ptr());
+            prefetch(self.samples[i..].as_ptr());
             let word = i / usize::BITS as usize;
             for bits in [&self.real, &self.hole, &self.fill_valid] {
                 prefetch(bits.as_raw_slice()[word..].as_ptr());
@@ -125,13 +130,33 @@ impl DestFrame {
     }
 
     /// [`DestFrame::begin_warp_sample`] of every sample in `range` (one run
-    /// of a row): the same values.
+    /// of a row): the same values. Host speed only: the same run of the
+    /// next row is prefetched, as tiles are reset row after row.
     pub fn begin_warp_run(&mut self, range: std::ops::Range<usize>) {
-        for i in range.clone() {
-            let real = bits::get(&self.real, i);
-            bits::put(&mut self.fill_valid, i, real);
-            self.fill_colour[i] = if real { self.colour[i] } else { [0.0; 3] };
+        let w = self.width as usize;
+        self.prefetch_run(range.start + w..range.end + w);
+        let real = &self.real[range.clone()];
+        self.fill_valid[range.clone()].copy_from_bitslice(real);
+        for (s, real) in self.samples[range].iter_mut().zip(real.iter().by_vals()) {
+            s.fill_colour = if real { s.colour } else { [0.0; 3] };
+            s.fill_distance = 0;
         }
-        self.fill_distance[range].fill(0);
+    }
+
+    /// Ask the host CPU to fetch the samples of `range` (a hint, as
+    /// [`DestFrame::prefetch`]; nothing if the range leaves the frame): for
+    /// the passes that walk a tile row after row, one row ahead.
+    #[inline]
+    pub fn prefetch_run(&self, range: std::ops::Range<usize>) {
+        if let Some(run) = self.samples.get(range) {
+            let bytes = run.as_ptr_range();
+            let (start, end) = (bytes.start.cast::<u8>(), bytes.end.cast::<u8>());
+            let mut p = start;
+            while p < end {
+                crate::host_hint::prefetch(p);
+                p = p.wrapping_add(64);
+            }
+            crate::host_hint::prefetch(end.wrapping_sub(1));
+        }
     }
 }

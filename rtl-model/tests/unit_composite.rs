@@ -116,7 +116,7 @@ fn a_stamp_pushed_at_p_is_composited_at_p_plus_1_and_not_before() {
     assert_eq!((t.state, t.moved), (UnitState::Busy, true));
     for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] {
         assert!(b.written(x, y), "({x}, {y}) not written at P + 1");
-        assert_eq!(b.frame.colour[b.frame.index(x, y)], [0.7, 0.5, 0.5]);
+        assert_eq!(b.frame.samples[b.frame.index(x, y)].colour, [0.7, 0.5, 0.5]);
     }
     assert!(!b.written(0, 0) && !b.written(3, 1));
     assert_eq!(c.verdicts()[Verdict::Filled as usize], 4);
@@ -232,10 +232,14 @@ fn the_miss_queue_lets_the_compositor_proceed_past_a_missing_tile_but_never_past
     assert_eq!(log.note(arrival, b.tick(&mut c, arrival)).state, UnitState::Busy);
     // One lane: the older stamp first; (1, 1) holds its colour until the
     // overlapping one goes a cycle later, in FIFO order.
-    assert_eq!(b.frame.colour[b.frame.index(1, 1)], [0.6, 0.5, 0.5]);
+    assert_eq!(b.frame.samples[b.frame.index(1, 1)].colour, [0.6, 0.5, 0.5]);
     assert_eq!(log.note(arrival + 1, b.tick(&mut c, arrival + 1)).state, UnitState::Busy);
-    assert_eq!(b.frame.colour[b.frame.index(2, 2)], [0.9, 0.5, 0.5]);
-    assert_eq!(b.frame.colour[b.frame.index(1, 1)][0], 0.6, "same reference, within tolerance: the stored stays");
+    assert_eq!(b.frame.samples[b.frame.index(2, 2)].colour, [0.9, 0.5, 0.5]);
+    assert_eq!(
+        b.frame.samples[b.frame.index(1, 1)].colour[0],
+        0.6,
+        "same reference, within tolerance: the stored stays"
+    );
     assert!(c.is_idle());
     assert_eq!(log.note(arrival + 2, b.tick(&mut c, arrival + 2)).state, UnitState::Idle);
     log.check(Cycle(30), c.close(Cycle(30)));

@@ -41,8 +41,8 @@ fn real_frame() -> DestFrame {
     let mut f = DestFrame::new(8, 4);
     for i in 0..f.len() {
         f.real.set(i, i % 3 == 0);
-        f.colour[i] = [i as f32 / 32.0, 0.5, 0.5];
-        f.fill_distance[i] = 9;
+        f.samples[i].colour = [i as f32 / 32.0, 0.5, 0.5];
+        f.samples[i].fill_distance = 9;
     }
     f
 }
@@ -60,8 +60,8 @@ fn a_first_warp_miss_clears_the_tile_on_chip_without_a_read() {
     assert!(c.want(Cycle(4), 1, true, &[1], &mut f, &mut port));
     // Planes 6-8 of tile 1 reset as it arrived; tile 0 untouched.
     let (inside, outside) = (f.index(5, 2), f.index(1, 2));
-    assert_eq!((f.fill_distance[inside], f.fill_valid[inside]), (0, f.real[inside]));
-    assert_eq!(f.fill_distance[outside], 9);
+    assert_eq!((f.samples[inside].fill_distance, f.fill_valid[inside]), (0, f.real[inside]));
+    assert_eq!(f.samples[outside].fill_distance, 9);
     let k = &c.tags().counters;
     assert_eq!((k.accesses, k.hits, k.misses_compulsory), (2, 1, 1));
 }
@@ -89,9 +89,9 @@ fn a_later_warp_loads_the_packed_bytes_as_demand_and_a_never_written_tile_costs_
     assert_eq!((read[Client::TileFill.index()], written.iter().sum::<u64>()), (37, 0));
     // The load arrives: planes 6-8 reset.
     let i = f.index(2, 1);
-    f.fill_distance[i] = 7;
+    f.samples[i].fill_distance = 7;
     c.arrived(Cycle(20), 0, true, &mut f);
-    assert_eq!((c.state(0), f.fill_distance[i]), (TileState::Resident, 0));
+    assert_eq!((c.state(0), f.samples[i].fill_distance), (TileState::Resident, 0));
 }
 
 #[test]
@@ -103,8 +103,8 @@ fn a_spill_writes_the_victim_raw_and_its_capacity_miss_reloads_it_raw_planes_unc
     c.begin_warp(0);
     let _ = c.want(Cycle(0), 0, true, &[0], &mut f, &mut port);
     let i = f.index(1, 1);
-    f.fill_distance[i] = 5;
-    f.colour[i] = [0.9; 3];
+    f.samples[i].fill_distance = 5;
+    f.samples[i].colour = [0.9; 3];
     let _ = c.want(Cycle(1), 1, true, &[1], &mut f, &mut port);
     assert_eq!((c.state(0), c.state(1)), (TileState::Spilled, TileState::Resident));
     assert_eq!(port.writes_waiting(), 1);
@@ -117,7 +117,7 @@ fn a_spill_writes_the_victim_raw_and_its_capacity_miss_reloads_it_raw_planes_unc
     assert_eq!(read[Client::TileFill.index()], RAW);
     assert_eq!(written[Client::TileWriteBack.index()], RAW);
     c.arrived(Cycle(3), 0, false, &mut f);
-    assert_eq!((f.fill_distance[i], f.colour[i]), (5, [0.9; 3]), "a raw reload changes no plane");
+    assert_eq!((f.samples[i].fill_distance, f.samples[i].colour), (5, [0.9; 3]), "a raw reload changes no plane");
     let k = &c.tags().counters;
     assert_eq!((k.misses_compulsory, k.misses_capacity, k.spills), (2, 1, 1));
 }

@@ -56,8 +56,8 @@ impl Bench {
                 if x >= 4 || !empty_tile_0 {
                     let i = frame.index(x, y);
                     frame.real.set(i, true);
-                    frame.colour[i] = BACKGROUND;
-                    frame.inv_z[i] = 0.5;
+                    frame.samples[i].colour = BACKGROUND;
+                    frame.samples[i].inv_z = 0.5;
                 }
             }
         }
@@ -94,7 +94,7 @@ impl Bench {
 
     fn colour(&self, x: u32, y: u32) -> ([f32; 3], bool) {
         let i = self.frame.index(x, y);
-        (self.frame.colour[i], self.frame.hole[i])
+        (self.frame.samples[i].colour, self.frame.hole[i])
     }
 }
 

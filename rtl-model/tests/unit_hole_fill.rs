@@ -51,7 +51,7 @@ impl Bench {
             for x in 0..2 {
                 let i = frame.index(x, y);
                 frame.real.set(i, true);
-                frame.colour[i] = BACKGROUND;
+                frame.samples[i].colour = BACKGROUND;
             }
         }
         let mut b = Bench {
@@ -93,7 +93,7 @@ impl Bench {
     /// Hole-fill distance and colour of `(x, y)`.
     fn fill(&self, x: u32, y: u32) -> (u8, [f32; 3]) {
         let i = self.frame.index(x, y);
-        (self.frame.fill_distance[i], self.frame.fill_colour[i])
+        (self.frame.samples[i].fill_distance, self.frame.samples[i].fill_colour)
     }
 }
 

@@ -43,8 +43,8 @@ impl Bench {
         for x in 0..W {
             let i = frame.index(x, 1);
             frame.real.set(i, true);
-            frame.colour[i] = [0.5, 0.25, x as f32 / 8.0];
-            frame.inv_z[i] = 0.2;
+            frame.samples[i].colour = [0.5, 0.25, x as f32 / 8.0];
+            frame.samples[i].inv_z = 0.2;
         }
         let cache = DestCache::new(2 * (TILE * TILE) as u64 * CACHE_BYTES_PER_SAMPLE, TILE, W, H);
         let mut b = Bench { frame, cache, port: MemPort::default() };

@@ -7,10 +7,27 @@
 
 use crate::trace::{ExrPacking, SamplePlanes, write_sample_planes};
 use bitvec::vec::BitVec;
-use postwarp_rtl::SampleImage;
+use postwarp_rtl::{DestFrame, SampleImage};
 use std::path::Path;
 
-/// The planes of a derived frame, borrowed from either engine.
+/// A derived frame's planes, as either engine stores them.
+pub trait DerivedPlanes {
+    /// Width and height (samples).
+    fn size(&self) -> (u32, u32);
+    /// Linear RGB of sample `i`.
+    fn colour(&self, i: usize) -> [f32; 3];
+    /// 1/Z of sample `i` (where real).
+    fn inv_z(&self, i: usize) -> f32;
+    /// 1/Z slopes of sample `i`.
+    fn slopes(&self, i: usize) -> [f32; 2];
+    /// Writing reference of sample `i` (where real).
+    fn source(&self, i: usize) -> u8;
+    /// Set where a real surface was written.
+    fn real(&self) -> &BitVec;
+}
+
+/// The planes of a derived frame as separate arrays (the golden model's
+/// layout), borrowed.
 pub struct Planes<'a> {
     /// Width (samples).
     pub width: u32,
@@ -28,15 +45,60 @@ pub struct Planes<'a> {
     pub real: &'a BitVec,
 }
 
+impl DerivedPlanes for Planes<'_> {
+    fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+    fn colour(&self, i: usize) -> [f32; 3] {
+        self.colour[i]
+    }
+    fn inv_z(&self, i: usize) -> f32 {
+        self.inv_z[i]
+    }
+    fn slopes(&self, i: usize) -> [f32; 2] {
+        self.slopes[i]
+    }
+    fn source(&self, i: usize) -> u8 {
+        self.source[i]
+    }
+    fn real(&self) -> &BitVec {
+        self.real
+    }
+}
+
+/// The hardware model's layout: the word planes of each sample together.
+impl DerivedPlanes for DestFrame {
+    fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+    fn colour(&self, i: usize) -> [f32; 3] {
+        self.samples[i].colour
+    }
+    fn inv_z(&self, i: usize) -> f32 {
+        self.samples[i].inv_z
+    }
+    fn slopes(&self, i: usize) -> [f32; 2] {
+        self.samples[i].slopes
+    }
+    fn source(&self, i: usize) -> u8 {
+        self.samples[i].source
+    }
+    fn real(&self) -> &BitVec {
+        &self.real
+    }
+}
+
 /// The samples of `p` in the reference-image format.
-pub fn derived_samples(p: &Planes) -> SampleImage {
-    let mut s = SampleImage::empty(p.width, p.height);
+pub fn derived_samples(p: &impl DerivedPlanes) -> SampleImage {
+    let (w, h) = p.size();
+    let mut s = SampleImage::empty(w, h);
+    let real = p.real();
     for i in 0..s.len() {
-        s.colour[i] = p.colour[i];
-        s.inv_z_slopes[i] = p.slopes[i];
-        s.object_id[i] = if p.real[i] { p.source[i] as u32 + 1 } else { 0 };
-        if p.real[i] {
-            s.z[i] = 1.0 / p.inv_z[i];
+        s.colour[i] = p.colour(i);
+        s.inv_z_slopes[i] = p.slopes(i);
+        s.object_id[i] = if real[i] { p.source(i) as u32 + 1 } else { 0 };
+        if real[i] {
+            s.z[i] = 1.0 / p.inv_z(i);
             s.valid.set(i, true);
         }
     }
@@ -44,15 +106,16 @@ pub fn derived_samples(p: &Planes) -> SampleImage {
 }
 
 /// Write `p` to `path` (module rule).
-pub fn write_frame_exr(path: &Path, p: &Planes) -> anyhow::Result<()> {
+pub fn write_frame_exr(path: &Path, p: &impl DerivedPlanes) -> anyhow::Result<()> {
     // The planes of `derived_samples(p)`, read in place.
+    let real = p.real();
     let planes = SamplePlanes {
-        size: (p.width, p.height),
-        colour: p.colour,
-        valid: p.real,
-        z: |i| 1.0 / p.inv_z[i],
-        slopes: Some(p.slopes),
-        id: |i| if p.real[i] { p.source[i] as u32 + 1 } else { 0 },
+        size: p.size(),
+        colour: |i| p.colour(i),
+        valid: real,
+        z: |i| 1.0 / p.inv_z(i),
+        slopes: Some(|i| p.slopes(i)),
+        id: |i| if real[i] { p.source(i) as u32 + 1 } else { 0 },
     };
     write_sample_planes(path, &planes, ExrPacking::Fast)?;
     Ok(())

@@ -28,7 +28,7 @@
 //!    fragment and ray-tree layers, which the report names
 //!    (`ignored_layers`).
 
-use super::frame_exr::{Planes, write_frame_exr};
+use super::frame_exr::write_frame_exr;
 use crate::golden::frame::{PreparedReference, Warper, prepare_reference, prepare_reference_owned};
 use crate::metrics::psnr::{luma, psnr_plane, psnr_rgb};
 use crate::picture::{to_srgb8, write_png};
@@ -222,19 +222,9 @@ fn measure(
         drop(golden);
         // Scoring beside writing the frame's files.
         let write = |out: &Path| -> anyhow::Result<()> {
-            let d = &hw.frame;
-            let planes = Planes {
-                width: d.width,
-                height: d.height,
-                colour: &d.colour,
-                inv_z: &d.inv_z,
-                slopes: &d.slopes,
-                source: &d.source,
-                real: &d.real,
-            };
             let (png, exr) = rayon::join(
                 || write_png(&out.join(format!("frame-{k:04}.png")), w, h, &hw.pixels),
-                || write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &planes),
+                || write_frame_exr(&out.join(format!("frame-{k:04}.exr")), &hw.frame),
             );
             png?;
             exr
@@ -312,10 +302,11 @@ fn differing_samples(hw: &FrameOutput, g: &crate::golden::planes::DestPlanes) ->
     let f = &hw.frame;
     (0..f.len())
         .filter(|&i| {
-            f.colour[i] != g.colour[i]
+            let d = &f.samples[i];
+            d.colour != g.colour[i]
                 || f.real[i] != g.real[i]
                 || f.hole[i] != g.hole[i]
-                || (f.real[i] && (f.inv_z[i] != g.inv_z[i] || f.source[i] != g.source[i]))
+                || (f.real[i] && (d.inv_z != g.inv_z[i] || d.source != g.source[i]))
         })
         .count() as u64
 }

@@ -158,10 +158,10 @@ pub fn write_reference_image_packed(
 ) -> Result<(), TraceError> {
     let planes = SamplePlanes {
         size: (img.width, img.height),
-        colour: &img.colour,
+        colour: |i| img.colour[i],
         valid: &img.valid,
         z: |i| img.z[i],
-        slopes: (slopes == SlopeSource::Exact).then_some(&img.inv_z_slopes[..]),
+        slopes: (slopes == SlopeSource::Exact).then_some(|i| img.inv_z_slopes[i]),
         id: |i| img.object_id[i],
     };
     write_sample_planes(path, &planes, packing)
@@ -170,36 +170,48 @@ pub fn write_reference_image_packed(
 /// A reference image's planes, some as functions of the sample index, for
 /// [`write_sample_planes`] (a derived frame's planes need no
 /// [`SampleImage`] copy).
-pub struct SamplePlanes<'a, Z: Fn(usize) -> f32, I: Fn(usize) -> u32> {
+pub struct SamplePlanes<'a, C, Z, S, I>
+where
+    C: Fn(usize) -> [f32; 3],
+    Z: Fn(usize) -> f32,
+    S: Fn(usize) -> [f32; 2],
+    I: Fn(usize) -> u32,
+{
     /// Width and height (samples).
     pub size: (u32, u32),
-    /// Linear RGB per sample.
-    pub colour: &'a [[f32; 3]],
+    /// Linear RGB of sample `i`.
+    pub colour: C,
     /// Set where a surface is (Z and slopes are written as 0 elsewhere).
     pub valid: &'a BitVec,
     /// Z of sample `i` where valid.
     pub z: Z,
-    /// 1/Z slopes per sample, when exact (`None`: no slope channels).
-    pub slopes: Option<&'a [[f32; 2]]>,
+    /// 1/Z slopes of sample `i`, when exact (`None`: no slope channels).
+    pub slopes: Option<S>,
     /// Object id of sample `i` (the channel is left out when every id is 0).
     pub id: I,
 }
 
 /// Write `p` as [`write_reference_image_packed`] writes a [`SampleImage`]
 /// of the same values: the same channels, the same bytes.
-pub fn write_sample_planes<Z: Fn(usize) -> f32, I: Fn(usize) -> u32>(
+pub fn write_sample_planes<C, Z, S, I>(
     path: &Path,
-    p: &SamplePlanes<'_, Z, I>,
+    p: &SamplePlanes<'_, C, Z, S, I>,
     packing: ExrPacking,
-) -> Result<(), TraceError> {
-    let n = p.colour.len();
-    let mut list: Vec<AnyChannel<FlatSamples>> = rgb_channels(p.colour);
+) -> Result<(), TraceError>
+where
+    C: Fn(usize) -> [f32; 3],
+    Z: Fn(usize) -> f32,
+    S: Fn(usize) -> [f32; 2],
+    I: Fn(usize) -> u32,
+{
+    let n = p.size.0 as usize * p.size.1 as usize;
+    let mut list: Vec<AnyChannel<FlatSamples>> = rgb_channels_of(n, &p.colour);
     let masked =
         |f: &dyn Fn(usize) -> f32| -> Vec<f32> { (0..n).map(|i| if p.valid[i] { f(i) } else { 0.0 }).collect() };
     list.push(AnyChannel::new("Z", FlatSamples::F32(masked(&p.z))));
-    if let Some(s) = p.slopes {
-        list.push(AnyChannel::new("dinvz_dx", FlatSamples::F32(masked(&|i| s[i][0]))));
-        list.push(AnyChannel::new("dinvz_dy", FlatSamples::F32(masked(&|i| s[i][1]))));
+    if let Some(s) = &p.slopes {
+        list.push(AnyChannel::new("dinvz_dx", FlatSamples::F32(masked(&|i| s(i)[0]))));
+        list.push(AnyChannel::new("dinvz_dy", FlatSamples::F32(masked(&|i| s(i)[1]))));
     }
     let id: Vec<u32> = (0..n).map(&p.id).collect();
     if id.iter().any(|&i| i != 0) {
@@ -227,10 +239,17 @@ pub fn write_truth_image(path: &Path, t: &TruthImage) -> Result<(), TraceError> 
 }
 
 fn rgb_channels(colour: &[[f32; 3]]) -> Vec<AnyChannel<FlatSamples>> {
+    rgb_channels_of(colour.len(), &|i| colour[i])
+}
+
+/// The R, G, B channels (f16) of `n` samples whose colours `colour` gives.
+fn rgb_channels_of(n: usize, colour: &impl Fn(usize) -> [f32; 3]) -> Vec<AnyChannel<FlatSamples>> {
     ["R", "G", "B"]
         .iter()
         .enumerate()
-        .map(|(k, name)| AnyChannel::new(*name, FlatSamples::F16(colour.iter().map(|c| f16::from_f32(c[k])).collect())))
+        .map(|(k, name)| {
+            AnyChannel::new(*name, FlatSamples::F16((0..n).map(|i| f16::from_f32(colour(i)[k])).collect()))
+        })
         .collect()
 }
 

@@ -10,6 +10,7 @@ pub mod props;
 
 use glam::{DQuat, DVec3};
 use postwarp::golden::planes::DestPlanes;
+use postwarp_rtl::dest_frame::DestSample;
 use postwarp_rtl::{Camera, DestFrame, Intrinsics, Pose, SampleImage};
 
 /// A fronto-parallel rectangle at depth `z`, `x0 <= X < x1`, all Y.
@@ -101,18 +102,23 @@ pub fn prop_config(default: u32) -> proptest::test_runner::Config {
 /// The golden model's derived planes as the hardware store holds them (the
 /// planes both have; the golden mesh/splat bit has no hardware plane).
 pub fn dest_frame(d: &DestPlanes) -> DestFrame {
+    let samples = (0..d.colour.len())
+        .map(|i| DestSample {
+            colour: d.colour[i],
+            inv_z: d.inv_z[i],
+            slopes: d.slopes[i],
+            fill_colour: d.fill_colour[i],
+            fill_weight: d.fill_weight[i],
+            source: d.source[i],
+            fill_distance: d.fill_distance[i],
+        })
+        .collect();
     DestFrame {
         width: d.width,
         height: d.height,
-        colour: d.colour.clone(),
-        inv_z: d.inv_z.clone(),
-        slopes: d.slopes.clone(),
-        source: d.source.clone(),
+        samples,
         hole: d.hole.clone(),
         real: d.real.clone(),
-        fill_colour: d.fill_colour.clone(),
         fill_valid: d.fill_valid.clone(),
-        fill_distance: d.fill_distance.clone(),
-        fill_weight: d.fill_weight.clone(),
     }
 }

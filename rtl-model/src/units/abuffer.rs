@@ -639,13 +639,17 @@ pub fn reference_depth(inv_z: f32) -> f32 {
 #[inline]
 pub fn sample_in(frame: &DestFrame, i: usize) -> Option<SampleIn> {
     let real = bits::get(&frame.real, i);
-    (real || bits::get(&frame.hole, i)).then(|| SampleIn {
-        colour: frame.colour[i],
-        inv_z: frame.inv_z[i],
-        slopes: frame.slopes[i],
+    let d = &frame.samples[i];
+    if !(real || bits::get(&frame.hole, i)) {
+        return None;
+    }
+    Some(SampleIn {
+        colour: d.colour,
+        inv_z: d.inv_z,
+        slopes: d.slopes,
         real,
-        key: frame.source[i] as u32,
-        weight: frame.fill_weight[i],
+        key: d.source as u32,
+        weight: d.fill_weight,
     })
 }
 
@@ -682,6 +686,11 @@ pub fn round_trip_dest_pixels(
     let mut idx = [0usize; MAX_SAMPLES_PER_PIXEL];
     let mut bytes = 0;
     for py in py0..py1 {
+        // Host speed only: the next row of pixels' samples, ahead.
+        for r in 0..ss {
+            let i = frame.index(px0 * ss, (py + 1) * ss + r);
+            frame.prefetch_run(i..i + ((px1 - px0) * ss) as usize);
+        }
         for px in px0..px1 {
             for (k, i) in pixel_samples(frame.width, ss, px, py).enumerate() {
                 idx[k] = i;
@@ -697,13 +706,14 @@ pub fn round_trip_dest_pixels(
                         bits::put(&mut frame.hole, i, false);
                     }
                     Some(f) => {
-                        frame.colour[i] = f.colour;
-                        frame.inv_z[i] = if f.real { f.inv_z_at(ss, k as u32) } else { 0.0 };
-                        frame.slopes[i] = f.slopes;
-                        frame.source[i] = f.key as u8;
+                        let d = &mut frame.samples[i];
+                        d.colour = f.colour;
+                        d.inv_z = if f.real { f.inv_z_at(ss, k as u32) } else { 0.0 };
+                        d.slopes = f.slopes;
+                        d.source = f.key as u8;
+                        d.fill_weight = f.weight;
                         bits::put(&mut frame.real, i, f.real);
                         bits::put(&mut frame.hole, i, !f.real);
-                        frame.fill_weight[i] = f.weight;
                     }
                 }
             }

@@ -51,7 +51,7 @@ use super::transform::TransformUnit;
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
 use crate::bits;
 use crate::clock::Cycle;
-use crate::dest_frame::DestFrame;
+use crate::dest_frame::{DestFrame, DestSample};
 use crate::fifo::Fifo;
 use crate::mem::MemPort;
 
@@ -97,29 +97,32 @@ pub fn composite(
     let verdict = if !bits::get(&f.real, i) {
         Verdict::Filled
     } else {
-        let (s, ss) = (f.inv_z[i], f.slopes[i]);
+        let d = &f.samples[i];
+        let (s, ss) = (d.inv_z, d.slopes);
         let l1 = |v: [f32; 2]| (v[0].abs() + v[1].abs()) as f64;
         let tol = slope_tol * l1(c.slopes).max(l1(ss)) + rel_tol * (c.inv_z.max(s)) as f64;
         let diff = c.inv_z as f64 - s as f64;
         if diff.abs() > tol {
             if diff > 0.0 { Verdict::Nearer } else { Verdict::Lost }
-        } else if f.source[i] != c.source && better() & (1 << f.source[i]) == 0 {
+        } else if d.source != c.source && better() & (1 << d.source) == 0 {
             Verdict::Better
         } else {
             Verdict::Lost
         }
     };
     if verdict != Verdict::Lost {
-        f.colour[i] = c.colour;
-        f.inv_z[i] = c.inv_z;
-        f.slopes[i] = c.slopes;
-        f.source[i] = c.source;
+        f.samples[i] = DestSample {
+            colour: c.colour,
+            inv_z: c.inv_z,
+            slopes: c.slopes,
+            fill_colour: c.fill_colour,
+            fill_weight: 0.0,
+            source: c.source,
+            fill_distance: 0,
+        };
         bits::put(&mut f.hole, i, false);
         bits::put(&mut f.real, i, true);
-        f.fill_weight[i] = 0.0;
-        f.fill_colour[i] = c.fill_colour;
         bits::put(&mut f.fill_valid, i, true);
-        f.fill_distance[i] = 0;
     }
     verdict
 }
@@ -365,6 +368,6 @@ mod tests {
         assert_eq!(composite(&mut f, 0, &cand(0.2, 0, 0.9), || 0, 2.0, 0.01), Verdict::Lost, "same source keeps");
         assert_eq!(composite(&mut f, 0, &cand(0.2, 1, 0.9), || 0b1, 2.0, 0.01), Verdict::Lost, "stored ref better");
         assert_eq!(composite(&mut f, 0, &cand(0.2, 1, 0.9), || 0, 2.0, 0.01), Verdict::Better);
-        assert_eq!(f.colour[0][0], 0.9);
+        assert_eq!(f.samples[0].colour[0], 0.9);
     }
 }

@@ -78,8 +78,8 @@ use bitvec::vec::BitVec;
 pub fn prepare_sample(f: &mut DestFrame, i: usize) {
     let source = f.real[i] || f.hole[i];
     f.fill_valid.set(i, source);
-    f.fill_colour[i] = if source { f.colour[i] } else { [0.0; 3] };
-    f.fill_distance[i] = 0;
+    f.samples[i].fill_colour = if source { f.samples[i].colour } else { [0.0; 3] };
+    f.samples[i].fill_distance = 0;
 }
 
 /// True if sample `i` is empty (neither a surface nor hole fill).

@@ -262,7 +262,7 @@ impl HoleFillUnit {
             self.counters.unreached += 1;
             return FillOutcome::Unreached;
         }
-        let nearest = taps[..n].iter().map(|&j| f.fill_distance[j] as u32).min().unwrap_or(0);
+        let nearest = taps[..n].iter().map(|&j| f.samples[j].fill_distance as u32).min().unwrap_or(0);
         let dist = (1 + nearest).min(p.max_distance);
         let mut far_taps = false;
         if dist > p.far_distance {
@@ -278,7 +278,7 @@ impl HoleFillUnit {
         // Mean of the counted taps' fill colours: f64 sum in tap order.
         let mut sum = [0.0f64; 3];
         for &j in &taps[..n] {
-            for (acc, v) in sum.iter_mut().zip(f.fill_colour[j]) {
+            for (acc, v) in sum.iter_mut().zip(f.samples[j].fill_colour) {
                 *acc += v as f64;
             }
         }
@@ -288,20 +288,21 @@ impl HoleFillUnit {
             None => sum.map(|v| (v / count) as f32),
             Some((col, _)) => sum.map(|v| col.q(v / count, &mut sat) as f32),
         };
-        f.fill_colour[i] = c;
+        let d = &mut f.samples[i];
+        d.fill_colour = c;
         bits::put(&mut f.fill_valid, i, true);
-        f.fill_distance[i] = dist as u8;
+        d.fill_distance = dist as u8;
         if !bits::get(&f.real, i) {
             // Rule 6: weighted accumulation over references.
-            let wt = f.fill_weight[i] as f64;
-            let old = if bits::get(&f.hole, i) { f.colour[i] } else { [0.0; 3] };
+            let wt = d.fill_weight as f64;
+            let old = if bits::get(&f.hole, i) { d.colour } else { [0.0; 3] };
             match self.fixed {
                 None => {
                     let inv_d = 1.0 / dist as f64;
                     for k in 0..3 {
-                        f.colour[i][k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
+                        d.colour[k] = ((old[k] as f64 * wt + c[k] as f64 * inv_d) / (wt + inv_d)) as f32;
                     }
-                    f.fill_weight[i] = (wt + inv_d) as f32;
+                    d.fill_weight = (wt + inv_d) as f32;
                 }
                 Some((col, wf)) => {
                     // Rule 9: 1/d and the sum in `q_hole_weight`, the
@@ -310,9 +311,9 @@ impl HoleFillUnit {
                     let den = wf.q(wt + inv_d, &mut sat);
                     for k in 0..3 {
                         let v = if den > 0.0 { (old[k] as f64 * wt + c[k] as f64 * inv_d) / den } else { c[k] as f64 };
-                        f.colour[i][k] = col.q(v, &mut sat) as f32;
+                        d.colour[k] = col.q(v, &mut sat) as f32;
                     }
-                    f.fill_weight[i] = den as f32;
+                    d.fill_weight = den as f32;
                 }
             }
             bits::put(&mut f.hole, i, true);
@@ -490,7 +491,7 @@ mod tests {
             for x in 0..2 {
                 let i = f.index(x, y);
                 f.real.set(i, true);
-                f.colour[i] = [0.25; 3];
+                f.samples[i].colour = [0.25; 3];
             }
         }
         for i in 0..f.len() {
@@ -505,8 +506,8 @@ mod tests {
         for x in 2..8 {
             let i = f.index(x, 1);
             assert!(f.hole[i] && f.fill_valid[i]);
-            assert_eq!(f.colour[i], [0.25; 3]);
-            assert_eq!(f.fill_distance[i] as u32, x - 1);
+            assert_eq!(f.samples[i].colour, [0.25; 3]);
+            assert_eq!(f.samples[i].fill_distance as u32, x - 1);
         }
     }
 

@@ -30,7 +30,7 @@ pub fn resolve(f: &DestFrame, ss: u32) -> (Vec<[f32; 3]>, BitVec) {
                     let k = f.index(px * ss + i, py * ss + j);
                     all &= f.real[k];
                     if f.real[k] || f.hole[k] {
-                        for (a, v) in sum.iter_mut().zip(f.colour[k]) {
+                        for (a, v) in sum.iter_mut().zip(f.samples[k].colour) {
                             *a += v as f64;
                         }
                     }
