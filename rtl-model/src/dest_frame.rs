@@ -50,6 +50,9 @@ pub struct DestSample {
     pub fill_distance: u8,
 }
 
+// SAFETY: `f32`s and `u8`s; all zero is `DestSample::default()`.
+unsafe impl crate::host_hint::Zeroable for DestSample {}
+
 /// Per-sample planes of a derived frame, row-major (`y·width + x`): the
 /// word planes per sample, the flag planes as bit planes.
 #[derive(Clone, Debug, PartialEq)]
@@ -75,7 +78,7 @@ impl DestFrame {
         DestFrame {
             width,
             height,
-            samples: vec![DestSample::default(); n],
+            samples: crate::host_hint::zeroed_vec(n),
             hole: BitVec::repeat(false, n),
             real: BitVec::repeat(false, n),
             fill_valid: BitVec::repeat(false, n),

@@ -118,6 +118,10 @@ pub(crate) struct RefSample {
     pub(crate) z: f32,
 }
 
+// SAFETY: six `f32`s. Allocated zeroed (row-major, zero where not valid),
+// the records may get huge pages, which the column sheets' strided reads need.
+unsafe impl crate::host_hint::Zeroable for RefSample {}
+
 impl RefSample {
     /// `1/Z` in FP64 (the warp's input), 0 where there is no surface.
     #[inline(always)]
@@ -190,21 +194,6 @@ impl HwReference {
     }
 }
 
-/// `n` all-zero records, allocated zeroed (row-major, zero where not
-/// valid): the host's allocator may then map them in huge pages, which the
-/// column sheets' strided reads need.
-fn zeroed_records(n: usize) -> Vec<RefSample> {
-    const _: () = assert!(std::mem::size_of::<RefSample>() == 24);
-    let mut words: Vec<[f32; 6]> = vec![[0.0; 6]; n];
-    let (ptr, len, cap) = (words.as_mut_ptr(), words.len(), words.capacity());
-    std::mem::forget(words);
-    // SAFETY: `RefSample` is `repr(C)` of six `f32`s, so it has the size
-    // and alignment of `[f32; 6]` and every bit pattern of one is a value
-    // of the other; the block keeps its allocation's layout (same size and
-    // alignment per element, same capacity).
-    unsafe { Vec::from_raw_parts(ptr.cast::<RefSample>(), len, cap) }
-}
-
 /// The A-buffer format's parameters of a configuration.
 pub fn abuffer_params(cfg: &EngineConfig) -> AbufferParams {
     AbufferParams {
@@ -236,7 +225,7 @@ impl HwReference {
         let grid = Grid::new(w, h);
         let mut valid_tiles = vec![0u64; grid.len() / 64];
         let mut depth = CoarseDepth::empty(w, h);
-        let mut recs = zeroed_records(w as usize * h as usize);
+        let mut recs = crate::host_hint::zeroed_vec::<RefSample>(w as usize * h as usize);
         let mut sat = 0u32;
         // Straight from the packed form: the expanded image is never held
         // whole (it was the peak of a reference's conversion).
