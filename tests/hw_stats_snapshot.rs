@@ -5,7 +5,7 @@
 //!
 //! A change that moves a cycle, a byte or a miss fails here. When the change
 //! is intended, rewrite the snapshots with `UPDATE_STATS=1 cargo test --test
-//! hw_stats_snapshot` and say in the commit why the figures moved.
+//! suite hw_stats_snapshot::` and say in the commit why the figures moved.
 
 use postwarp::trace::Trace;
 use postwarp_rtl::config::EngineConfig;

@@ -253,9 +253,10 @@ pub struct WarpSetup {
     pub epipole_derived: Epipole,
 }
 
-/// The image of one warped sample.
+/// The image of one sample under the warp equation (both engines' transform
+/// units build their `Transformed` from it).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Warped {
+pub struct ProjectedPoint {
     /// Derived-image position (x', y').
     pub position: DVec2,
     /// Derived-camera 1/Z.
@@ -286,11 +287,11 @@ impl WarpSetup {
     /// Warp reference image point `(x, y)` with reference `1/Z` to the derived
     /// image: `N = H·(x, y, 1) + δ·ê`, `δ = s1/Z1`, `x' = N.x/W`, `y' = N.y/W`,
     /// `1/Z2 = δ/(s2·W)`.
-    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> Warped {
+    pub fn warp(&self, x: f64, y: f64, inv_z: f64) -> ProjectedPoint {
         let delta = self.s1 * inv_z;
         let n = self.h * DVec3::new(x, y, 1.0) + self.e_hat * delta;
         let w = n.z;
-        Warped { position: DVec2::new(n.x / w, n.y / w), inv_z: delta / (self.s2 * w), w }
+        ProjectedPoint { position: DVec2::new(n.x / w, n.y / w), inv_z: delta / (self.s2 * w), w }
     }
 }
 

@@ -57,12 +57,12 @@
 //! 1. Warps run one after another: a warp starts when the previous one has
 //!    released every tile and its write queue has been issued. The cycle in
 //!    which a warp ends is the first cycle of the next one.
+//! 2. The values computed (warp, kernels, composite, hole fill, A-buffer)
+//!    do not depend on timing; only when they are computed does.
 //! 3. After the last warp, with `fallback_fill`, the hole fill's fallback
 //!    pass (`units::fallback_fill`) reads back the tiles holding empty
 //!    samples, fills them and writes back what changed, every other unit
 //!    idle; then the display read.
-//! 2. The values computed (warp, kernels, composite, hole fill, A-buffer)
-//!    do not depend on timing; only when they are computed does.
 //!
 //! Not modelled: overlap of consecutive warps or frames, the schedule's
 //! computation time (driver software), clock gating.

@@ -38,7 +38,7 @@ fn stamp(line: u32, x: (i64, i64), y: (i64, i64), r: f32) -> Stamped {
     let size = ((x.1 - x.0 + 1) as u32, (y.1 - y.0 + 1) as u32);
     Stamped {
         line,
-        stamp: Rect { x, y, size, over_limit: false },
+        rect: Rect { x, y, size, over_limit: false },
         cand: Candidate { colour: [r, 0.5, 0.5], inv_z: 0.2, slopes: [0.0; 2], source: 0, fill_colour: [r, 0.0, 0.0] },
         sample: (3, 3),
         src_inv_z: 0.2,

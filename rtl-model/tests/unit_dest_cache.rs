@@ -8,7 +8,9 @@
 //! written back costing nothing, and the cache-only planes 6–8 are reset
 //! as it arrives (rule 1); a capacity miss reloads the raw tile with the
 //! planes unchanged (rule 2); a spill writes the victim raw through the
-//! write queue (rule 3); loads queue as demand requests (rule 4).
+//! write queue (rule 3); loads queue as demand requests (rule 4); a load
+//! wanted at cycle N makes the tile resident at exactly N + latency +
+//! transfer, not a cycle before.
 
 use postwarp_rtl::clock::Cycle;
 use postwarp_rtl::config::CACHE_BYTES_PER_SAMPLE;
@@ -120,4 +122,47 @@ fn a_spill_writes_the_victim_raw_and_its_capacity_miss_reloads_it_raw_planes_unc
     assert_eq!((f.samples[i].fill_distance, f.samples[i].colour), (5, [0.9; 3]), "a raw reload changes no plane");
     let k = &c.tags().counters;
     assert_eq!((k.misses_compulsory, k.misses_capacity, k.spills), (2, 1, 1));
+}
+
+#[test]
+fn a_load_wanted_at_n_is_resident_at_n_plus_latency_plus_transfer_and_not_a_cycle_before() {
+    const LATENCY: u64 = 9;
+    const BYTES: u64 = 37;
+    let mut f = real_frame();
+    let mut c = DestCache::new(2 * RAW, TILE, 8, 4);
+    let mut port = MemPort::default();
+    c.begin_warp(0);
+    let _ = c.want(Cycle(0), 0, true, &[0], &mut f, &mut port);
+    c.release(0, BYTES);
+    c.begin_warp(1);
+    // 8 bytes a cycle: 37 bytes are 5 cycles of bus time.
+    let mut d: Dram<Tag> =
+        Dram::new(DramConfig { peak_bytes_per_cycle: 8, latency_cycles: LATENCY, burst_bytes: 1, max_outstanding: 8 });
+    let n = 5u64;
+    let transfer = BYTES.div_ceil(8);
+    let mut resident_at = None;
+    for t in n..n + LATENCY + transfer + 4 {
+        // The engine's order: DRAM tick, completions delivered, then the
+        // port issues and the units ask.
+        d.tick(Cycle(t));
+        while let Some((tag, _)) = d.completed(Cycle(t)) {
+            if let Tag::Tile { tile, fresh } = tag {
+                c.arrived(Cycle(t), tile, fresh, &mut f);
+            }
+        }
+        port.issue(&mut d, Cycle(t));
+        let hit = c.want(Cycle(t), 0, true, &[0], &mut f, &mut port);
+        if hit && resident_at.is_none() {
+            resident_at = Some(t);
+        }
+        if t == n {
+            assert!(!hit, "a miss at N");
+            assert_eq!(c.state(0), TileState::Loading);
+            // The port has taken no request yet this cycle: the load goes
+            // out in the cycle it was queued.
+            port.issue(&mut d, Cycle(t));
+        }
+    }
+    assert_eq!(resident_at, Some(n + LATENCY + transfer), "resident exactly when the load completes");
+    assert_eq!(c.loads(), 1, "one load in this warp, the retries while loading not counted");
 }

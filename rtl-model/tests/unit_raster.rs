@@ -69,8 +69,8 @@ fn a_kernel_pushed_at_p_is_rasterized_at_p_plus_1_and_reaches_the_compositor_at_
     assert_eq!((t.state, t.moved, input.len(), out.len()), (UnitState::Busy, true, 0, 1));
     assert!(out.pop(p + 1).is_none(), "the stamp FIFO's latency");
     let s = out.pop(p + 2).expect("in front of the compositor at P + 2");
-    assert_eq!(s.stamp, rect(2.2, 4.2, 3.1, 5.1, (3.2, 4.1), 4, SIZE));
-    assert_eq!((s.stamp.x, s.stamp.y), ((3, 4), (4, 5)));
+    assert_eq!(s.rect, rect(2.2, 4.2, 3.1, 5.1, (3.2, 4.1), 4, SIZE));
+    assert_eq!((s.rect.x, s.rect.y), ((3, 4), (4, 5)));
     assert_eq!((s.line, s.sample, s.better, s.counted), (0, (3, 4), None, false));
     let c = &s.cand;
     assert_eq!((c.colour, c.fill_colour, c.inv_z, c.source), ([0.1, 0.2, 0.3], [0.4, 0.5, 0.6], 0.2f32, 3));
@@ -158,7 +158,7 @@ fn a_box_over_the_stamp_is_clipped_around_the_sample_and_counted() {
     input.push(Cycle(0), k).unwrap();
     tick(&mut r, Cycle(1), &mut input, &mut out, &mut tiles);
     let s = out.pop(Cycle(2)).unwrap();
-    assert_eq!((s.stamp.x, s.stamp.y, s.stamp.size, s.stamp.over_limit), ((3, 6), (3, 4), (7, 2), true));
+    assert_eq!((s.rect.x, s.rect.y, s.rect.size, s.rect.over_limit), ((3, 6), (3, 4), (7, 2), true));
     let (over, rects) = r.counts();
     assert_eq!(over, 1);
     assert_eq!(rects[4][2], 1, "counted by drawn size");

@@ -56,7 +56,7 @@ pub fn fallback_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> (Fa
     let (w, h) = (d.width as i64, d.height as i64);
     let keys = OrderKey::new(d.width, d.height, e);
     let dw = d.width as usize;
-    let rank = |i: usize| keys.key((i % dw) as u32, (i / dw) as u32);
+    let order_key = |i: usize| keys.key((i % dw) as u32, (i / dw) as u32);
     // Rule 2.
     let mut empty: Vec<(u64, usize)> = Vec::new();
     for i in 0..d.len() {
@@ -65,7 +65,7 @@ pub fn fallback_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> (Fa
         d.fill_colour[i] = if source { d.colour[i] } else { [0.0; 3] };
         d.fill_distance[i] = 0;
         if !source {
-            empty.push((rank(i), i));
+            empty.push((order_key(i), i));
         }
     }
     // Rule 1: highest forward rank first.
@@ -85,7 +85,7 @@ pub fn fallback_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> (Fa
                 return None;
             }
             let j = (ty * w + tx) as usize;
-            (d.fill_valid[j] && rank(j) > key).then_some(j)
+            (d.fill_valid[j] && order_key(j) > key).then_some(j)
         };
         let mut taps = [0usize; 5];
         let mut n = 0;

@@ -74,8 +74,8 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
     let (w, h) = (d.width as i64, d.height as i64);
     let keys = OrderKey::new(d.width, d.height, e);
     let dw = d.width as usize;
-    let rank = |i: usize| keys.key((i % dw) as u32, (i / dw) as u32);
-    let mut holes: Vec<(u64, usize)> = d.fill_valid.iter_zeros().map(|i| (rank(i), i)).collect();
+    let order_key = |i: usize| keys.key((i % dw) as u32, (i / dw) as u32);
+    let mut holes: Vec<(u64, usize)> = d.fill_valid.iter_zeros().map(|i| (order_key(i), i)).collect();
     holes.sort_unstable();
     let mut st = HoleFillStats::default();
     for (key, i) in holes {
@@ -91,7 +91,7 @@ pub fn hole_fill(d: &mut DestPlanes, e: &Epipole, p: &HoleFillParams) -> HoleFil
                 return None;
             }
             let j = (ty * w + tx) as usize;
-            (d.fill_valid[j] && rank(j) < key).then_some(j)
+            (d.fill_valid[j] && order_key(j) < key).then_some(j)
         };
         // Up to 3 near and 2 far taps, in fixed arrays (no allocation).
         let mut taps = [0usize; 5];

@@ -3,7 +3,7 @@
 //!
 //! Rules:
 //! 1. Discontinuity test (view-dependent): two reference samples at offset
-//!    `o` (|o| = 1 or √2) are one surface iff their warped distance is at
+//!    `o` (|o| = 1 or √2) are the same surface iff their warped distance is at
 //!    most `threshold · |o| · (E_a + E_b)/2`.
 //! 2. Each kernel corner is shared by the 2x2 group of samples around it.
 //!    If all four are warped surfaces, all six pairs pass rule 1 and the
@@ -26,7 +26,7 @@ use postwarp_rtl::SampleImage;
 /// Why a group's corner is not shared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GroupState {
-    /// All four samples are one surface: shared corner.
+    /// All four samples are the same surface: shared corner.
     Shared,
     /// A sample is missing (no surface or culled).
     Missing,

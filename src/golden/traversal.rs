@@ -340,7 +340,7 @@ impl OrderKey {
         if self.front { RING_CAP - 1 - r } else { r }
     }
 
-    /// Rank key of sample `(x, y)`: ring band, then sweep, then line, then
+    /// `OrderKey` of sample `(x, y)`: ring band, then sweep, then line, then
     /// which octant of the sweep, then position in line (rule 5).
     pub fn key(&self, x: u32, y: u32) -> u64 {
         let sheet = self.sheet(x, y);
@@ -355,7 +355,7 @@ impl OrderKey {
         (self.ring(x, y) << 44) | (sweep << 42) | (l << 21) | (half << 20) | a
     }
 
-    /// Rank key of sample `(x, y)` in the warp's order (rule 6): the ring
+    /// `OrderKey` of sample `(x, y)` in the warp's order (rule 6): the ring
     /// bands reversed, each band's sweeps in increasing order, the rest of
     /// [`OrderKey::key`] complemented.
     pub fn warp_key(&self, x: u32, y: u32) -> u64 {

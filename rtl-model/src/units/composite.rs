@@ -147,8 +147,8 @@ pub struct CompositePorts<'a> {
 /// whole stalled the host's store forwarding on every stamp.
 #[inline]
 fn stamp_tiles(c: &DestCache, job: &Stamped) -> ([u32; 4], usize) {
-    let (tx0, tx1) = (c.tile_col(job.stamp.x.0 as u32), c.tile_col(job.stamp.x.1 as u32));
-    let (ty0, ty1) = (c.tile_row_base(job.stamp.y.0 as u32), c.tile_row_base(job.stamp.y.1 as u32));
+    let (tx0, tx1) = (c.tile_col(job.rect.x.0 as u32), c.tile_col(job.rect.x.1 as u32));
+    let (ty0, ty1) = (c.tile_row_base(job.rect.y.0 as u32), c.tile_row_base(job.rect.y.1 as u32));
     let row = c.tiles().0;
     debug_assert!(tx1 <= tx0 + 1 && ty1 <= ty0 + row, "a stamp spans at most two tiles per axis");
     let t = ty0 + tx0;
@@ -169,8 +169,8 @@ fn stamp_tiles(c: &DestCache, job: &Stamped) -> ([u32; 4], usize) {
 pub fn prefetch_stamps(input: &Fifo<Stamped>, from: usize, frame: &DestFrame) {
     for k in from..input.len() {
         let Some(job) = input.held(k) else { break };
-        let x = job.stamp.x.0.max(0) as u32;
-        for row in job.stamp.y.0.max(0)..=job.stamp.y.1 {
+        let x = job.rect.x.0.max(0) as u32;
+        for row in job.rect.y.0.max(0)..=job.rect.y.1 {
             frame.prefetch(frame.index(x, row as u32));
         }
     }
@@ -254,7 +254,7 @@ impl<'s> CompositeStage<'s> {
         let (src_inv_z, src_slopes) = (job.src_inv_z, job.src_slopes);
         let tu = self.tu;
         let f = &mut *io.frame;
-        job.stamp.for_each(|x, y| {
+        job.rect.for_each(|x, y| {
             let i = f.index(x, y);
             let better = &mut job.better;
             let v = composite(

@@ -6,9 +6,11 @@
 //! Job: stream the samples of each fetch interval to the transform unit;
 //! keep the reference blocks they come from on chip.
 //!
-//! Ports: out, samples `(x, y, 1/Z, slopes)` to the transform unit
-//! (`transform_throughput` per cycle); memory, block reads
-//! ([`crate::mem::Client::ReferenceFetch`]).
+//! Ports: out, samples `(x, y, 1/Z, slopes)` to the transform unit;
+//! memory, block reads ([`crate::mem::Client::ReferenceFetch`]).
+//!
+//! Throughput: up to `transform_throughput` samples per cycle while their
+//! blocks are on chip; at most one block read a cycle (the memory port's).
 //!
 //! Rules:
 //! 1. The reference is stored in blocks of `B x B` pixels,

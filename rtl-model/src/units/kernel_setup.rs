@@ -17,7 +17,7 @@
 //! its sheet has been transformed (the engine enforces this).
 //!
 //! Rules:
-//! 1. Two samples at offset `o` (|o| = 1 or √2) are one surface iff their
+//! 1. Two samples at offset `o` (|o| = 1 or √2) are the same surface iff their
 //!    warped distance is at most `threshold · |o| · (E_a + E_b)/2`
 //!    (compared squared).
 //! 2. A corner is shared by the 2x2 group around it: if the four samples

@@ -124,14 +124,17 @@ impl Rect {
     }
 }
 
-/// A stamp travelling from the rasterizer to the compositor: the covered
-/// samples and the flat candidate.
+/// One clock's stamp travelling from the rasterizer to the compositor: the
+/// kernel's clipped rectangle of covered samples (the golden model's
+/// [`Rect`] too) and its flat candidate. "Stamp" is the hardware's 4x4
+/// footprint per clock (`docs/warper-reference.md`), the one word the
+/// golden model has no twin for.
 #[derive(Clone, Copy, Debug)]
 pub struct Stamped {
     /// The schedule line of its kernel.
     pub line: u32,
     /// Covered derived samples.
-    pub stamp: Rect,
+    pub rect: Rect,
     /// The flat candidate.
     pub cand: Candidate,
     /// The reference sample.
@@ -238,7 +241,7 @@ impl<'s> RasterStage<'s> {
             };
             let job = Stamped {
                 line: k.line,
-                stamp: s,
+                rect: s,
                 cand,
                 sample: k.sample,
                 src_inv_z: k.src_inv_z,

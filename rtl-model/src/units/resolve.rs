@@ -2,6 +2,9 @@
 //! samples (TR98 §10: frames are expanded to super-samples on chip and
 //! resolved for display).
 //!
+//! Job: turn the finished frame's super-samples into display pixels and
+//! say which pixels are wholly covered by warped surfaces.
+//!
 //! Ports: in, the final derived frame as the display reads it from memory
 //! (A-buffer format, expanded); out, display pixels (linear RGB).
 //!
@@ -10,6 +13,10 @@
 //!
 //! Throughput: one pixel per cycle of the display clock (not part of the
 //! warper's cycle count; its memory reads are: `Client::Output`).
+//!
+//! Not modelled: the display clock and scan-out (a pure function here, run
+//! after the frame's last cycle; no timing test of its own), filters other
+//! than the box, gamma (pixels stay linear RGB; reports encode sRGB).
 
 use crate::dest_frame::DestFrame;
 use bitvec::vec::BitVec;

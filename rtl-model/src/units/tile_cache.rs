@@ -6,8 +6,14 @@
 //! the tile manager releases it; when full, spill a resident tile to make
 //! room and count it.
 //!
-//! Ports: access (tile) from the compositor and the hole-fill unit; load
-//! and write-back requests to DRAM through the engine's memory port.
+//! Ports: access (tile) from the compositor, the hole-fill unit and the
+//! packer (release); load and write-back requests to DRAM through the
+//! engine's memory port.
+//!
+//! Throughput: any number of look-ups a cycle (a tag store without ports
+//! of its own: the units' rates bound it), one load or write issued a cycle
+//! by the memory port. It holds no clock of its own: its timing is that of
+//! the loads (`units::dest_cache`, tested in `tests/unit_dest_cache.rs`).
 //!
 //! Rules:
 //! 1. Capacity is `dest_cache_bytes / (tile_size² · 16 B)` tiles

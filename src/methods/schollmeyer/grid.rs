@@ -212,7 +212,7 @@ pub fn vertex(links: &Links, cx: u32, cy: u32, own: usize) -> GridVertex {
 
 /// A warped vertex (rule 4).
 #[derive(Clone, Copy, Debug)]
-struct Warped {
+struct WarpedVertex {
     pos: DVec2,
     inv_z: f64,
     /// 1/W, and reference coordinates divided by W.
@@ -220,12 +220,12 @@ struct Warped {
     src_w: DVec2,
 }
 
-fn warp_vertex(setup: &WarpSetup, v: &GridVertex) -> Option<Warped> {
+fn warp_vertex(setup: &WarpSetup, v: &GridVertex) -> Option<WarpedVertex> {
     let t = setup.warp(v.pos.x, v.pos.y, v.inv_z);
     let ok = t.w > 0.0 && t.position.is_finite() && t.inv_z.is_finite();
     ok.then(|| {
         let rw = 1.0 / t.w;
-        Warped { pos: t.position, inv_z: t.inv_z, rw, src_w: v.pos * rw }
+        WarpedVertex { pos: t.position, inv_z: t.inv_z, rw, src_w: v.pos * rw }
     })
 }
 
@@ -288,7 +288,7 @@ fn texel(ctx: &Ctx, cell: &Cell, s: DVec2) -> ([f32; 3], bool) {
 }
 
 /// Rules 5–8 for one triangle of `cell`.
-fn draw_triangle(ctx: &Ctx, cell: &Cell, t: [Warped; 3], d: &mut DestPlanes, st: &mut Stats) {
+fn draw_triangle(ctx: &Ctx, cell: &Cell, t: [WarpedVertex; 3], d: &mut DestPlanes, st: &mut Stats) {
     let p = t.map(|v| v.pos);
     let area2 = cross(p[1] - p[0], p[2] - p[0]);
     if !(area2 > 0.0 && area2.is_finite()) {
@@ -330,7 +330,7 @@ fn draw_triangle(ctx: &Ctx, cell: &Cell, t: [Warped; 3], d: &mut DestPlanes, st:
 }
 
 /// Rules 4–5 for one cell with corner vertices `v` (TL, TR, BL, BR).
-fn draw_cell(ctx: &Ctx, cell: &Cell, v: [Option<Warped>; 4], d: &mut DestPlanes, st: &mut Stats) {
+fn draw_cell(ctx: &Ctx, cell: &Cell, v: [Option<WarpedVertex>; 4], d: &mut DestPlanes, st: &mut Stats) {
     if let [Some(a), Some(b), Some(c), Some(dd)] = v {
         st.drawn += 1;
         draw_triangle(ctx, cell, [a, b, dd], d, st);
@@ -377,7 +377,7 @@ impl Schollmeyer {
     /// Rules 4–8: draw `grid` of reference `img` through `setup` into `d`.
     fn draw(&self, grid: &Grid, img: &SampleImage, setup: &WarpSetup, source: u8, d: &mut DestPlanes, st: &mut Stats) {
         let ctx = Ctx { img, links: &grid.links, setup, source };
-        let warped: Vec<Option<Warped>> = grid.vertices.iter().map(|v| warp_vertex(setup, v)).collect();
+        let warped: Vec<Option<WarpedVertex>> = grid.vertices.iter().map(|v| warp_vertex(setup, v)).collect();
         st.vertices += warped.len() as u64;
         for gc in &grid.cells {
             let v = gc.v.map(|k| warped[k as usize]);
