@@ -41,6 +41,10 @@ fn every_frame_has_a_timeline_whose_unit_intervals_tile_the_frame_and_match_the_
         let t = json(&out.join(format!("timeline-{k:04}.json")));
         let cycles = f["cycles"].as_u64().unwrap();
         assert_eq!(t["otherData"]["cycles"].as_u64(), Some(cycles));
+        // Rule 4: time stamps are microseconds at the configured clock,
+        // rounded to the nanosecond.
+        let hz = t["otherData"]["clock_hz"].as_f64().expect("clock_hz");
+        let us = |c: u64| (c as f64 * 1e9 / hz).round() / 1e3;
         let ev = t["traceEvents"].as_array().expect("traceEvents");
         // One named track per unit in process 1.
         let tid_of = |name: &str| {
@@ -57,6 +61,8 @@ fn every_frame_has_a_timeline_whose_unit_intervals_tile_the_frame_and_match_the_
                 let a = &e["args"];
                 assert_eq!(a["cycle"].as_u64(), Some(at), "frame {k} {unit}: intervals not contiguous");
                 let len = a["cycles"].as_u64().unwrap();
+                assert_eq!(e["ts"].as_f64(), Some(us(at)), "frame {k} {unit}: ts of cycle {at}");
+                assert_eq!(e["dur"].as_f64(), Some(us(len)), "frame {k} {unit}: dur at cycle {at}");
                 let mut parts = 0;
                 for (key, v) in a.as_object().unwrap() {
                     if key != "cycle" && key != "cycles" {
