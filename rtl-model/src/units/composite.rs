@@ -170,8 +170,14 @@ pub fn prefetch_stamps(input: &Fifo<Stamped>, from: usize, frame: &DestFrame) {
     for k in from..input.len() {
         let Some(job) = input.held(k) else { break };
         let x = job.rect.x.0.max(0) as u32;
+        let n = (job.rect.x.1 + 1 - x as i64).max(0) as usize;
         for row in job.rect.y.0.max(0)..=job.rect.y.1 {
-            frame.prefetch(frame.index(x, row as u32));
+            // The row's first sample with its flag words, then the rest
+            // of the row's samples (a row of 44-byte samples spans up to
+            // three host cache lines).
+            let i = frame.index(x, row as u32);
+            frame.prefetch(i);
+            frame.prefetch_run(i + 1..i + n);
         }
     }
 }
