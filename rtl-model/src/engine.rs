@@ -73,7 +73,7 @@ use crate::cmd::FrameCommands;
 use crate::config::EngineConfig;
 use crate::dest_frame::DestFrame;
 use crate::fifo::Fifo;
-use crate::frame_stats::Saturations;
+use crate::frame_stats::{ABUFFER, HOLE_FILL, Saturations};
 use crate::hw_reference::abuffer_params;
 use crate::mem::{Dram, DramBackendFactory, MemPort, MemoryLayout, Region, Tag};
 use crate::qformat::FixedFormats;
@@ -368,6 +368,11 @@ struct Machine<'c> {
 
 /// The occupancy series a timeline records, in [`Pipeline::occupancy`]
 /// order.
+/// Index of the memory port's queues in [`occupancy_series`].
+const PORT_SERIES: usize = 3;
+/// Index of the destination cache in [`occupancy_series`].
+const CACHE_SERIES: usize = 4;
+
 fn occupancy_series(cfg: &EngineConfig) -> Vec<Occupancy> {
     let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * crate::config::CACHE_BYTES_PER_SAMPLE;
     let pipe = cfg.transform_throughput as u64 * (cfg.transform_latency as u64 + 1);
@@ -459,7 +464,7 @@ impl Machine<'_> {
                 u.charge(UnitState::Idle, span);
             }
             if let Some(t) = &mut self.timeline {
-                t.occupancy[3].add(before, span, self.port.queued() as u64);
+                t.occupancy[PORT_SERIES].add(before, span, self.port.queued() as u64);
             }
         }
     }
@@ -493,15 +498,17 @@ impl Machine<'_> {
                 if moved { None } else { [p.next_event(now), self.memory_event(now)].into_iter().flatten().min() };
             let span = self.advance(moved, next);
             if let Some(t) = &mut self.timeline {
-                t.occupancy[3].add(now, span, self.port.queued() as u64);
-                t.occupancy[4].add(now, span, self.cache.tags().occupancy() as u64);
+                t.occupancy[PORT_SERIES].add(now, span, self.port.queued() as u64);
+                t.occupancy[CACHE_SERIES].add(now, span, self.cache.tags().occupancy() as u64);
             }
         }
         let span = self.now - start;
-        for u in &mut self.units[..5] {
+        // The fallback pass runs the hole-fill unit and the packer; every
+        // unit before them in `UNITS` is idle.
+        for u in &mut self.units[..HOLE_FILL] {
             u.charge(UnitState::Idle, span);
         }
-        for (k, (c, runs)) in [5, 6].into_iter().zip(p.close(self.now)) {
+        for (k, (c, runs)) in [HOLE_FILL, ABUFFER].into_iter().zip(p.close(self.now)) {
             self.units[k].add(&c);
             if let Some(t) = &mut self.timeline {
                 t.append_runs(k, runs);

@@ -29,6 +29,13 @@ use crate::units::tile_cache::TileCacheCounters;
 /// The units whose cycles are accounted, in report order.
 pub const UNITS: [&str; 7] = ["fetch", "transform", "kernel_setup", "raster", "composite", "hole_fill", "abuffer"];
 
+/// Index of the hole-fill unit in [`UNITS`] (its account in `units`).
+pub const HOLE_FILL: usize = 5;
+/// Index of the A-buffer packer in [`UNITS`].
+pub const ABUFFER: usize = 6;
+const _: () =
+    assert!(matches!(UNITS[HOLE_FILL].as_bytes(), b"hole_fill") && matches!(UNITS[ABUFFER].as_bytes(), b"abuffer"));
+
 /// Largest rectangle side tracked in [`FrameStats::rects`].
 pub const RECT_HIST_MAX: usize = 8;
 
