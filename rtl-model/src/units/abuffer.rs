@@ -639,10 +639,10 @@ pub fn reference_depth(inv_z: f32) -> f32 {
 #[inline]
 pub fn sample_in(frame: &DestFrame, i: usize) -> Option<SampleIn> {
     let real = bits::get(&frame.real, i);
-    let d = &frame.samples[i];
     if !(real || bits::get(&frame.hole, i)) {
         return None;
     }
+    let d = &frame.samples[i];
     Some(SampleIn {
         colour: d.colour,
         inv_z: d.inv_z,
