@@ -4,9 +4,11 @@
 //! Job: pack a rendered reference once ([`HwReference::new`]: the
 //! renderer's output, or the warper's conversion on first use; not
 //! charged), keep its packed form (block sizes for the source cache), its
-//! coarse depth map (the tile manager's schedule) and host-speed copies of
-//! what the fetch unit expands (valid bits in 8x8 tiles, one 24-byte
-//! record per sample, row-major).
+//! coarse depth map (the tile manager's schedule) and a host-speed copy of
+//! its valid bits (8x8 tiles). The 24-byte records the units read of each
+//! sample ([`RefSample`]) are expanded from the packed form a block at a
+//! time as a warp reaches them (`crate::ref_blocks`), so a reference costs
+//! its packed size, not its expanded size, for as long as it is held.
 //!
 //! Rules: the expansion is the unpacker's (`units::abuffer`), so every unit
 //! sees exactly what a hardware expander would produce; the host copies
@@ -20,7 +22,7 @@ use crate::qformat::{FixedFormats, QFormat};
 use crate::sample_image::SampleImage;
 use crate::schedule::CoarseDepth;
 use crate::traversal::Major;
-use crate::units::abuffer::{self, AbufferCounters, AbufferParams, PackedReference};
+use crate::units::abuffer::{self, AbufferCounters, AbufferParams, ExpandedSample, PackedReference};
 
 /// A reference frame as it sits in memory, with the host-side expansion
 /// the fetch unit streams (unpacking is deterministic; the model does it
@@ -37,10 +39,8 @@ pub struct HwReference {
     pub depth: CoarseDepth,
     /// Packer counters of the conversion (reference frames).
     pub counters: AbufferCounters,
-    /// What the units read of each sample, one record per sample,
-    /// row-major (a host-speed copy: it changes no value). Column sheets
-    /// read it with a stride of one row ([`Line`]).
-    recs: Vec<RefSample>,
+    /// Fixed mode: the formats the expander rounds to ([`record`]).
+    fixed: Option<FixedFormats>,
     /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     pub(crate) grid: Grid,
     /// Fixed mode: the format the expander rounds 1/Z to ([`HwReference::inv_z`]).
@@ -118,32 +118,11 @@ pub(crate) struct RefSample {
     pub(crate) z: f32,
 }
 
-// SAFETY: six `f32`s. Allocated zeroed (row-major, zero where not valid),
-// the records may get huge pages, which the column sheets' strided reads need.
-unsafe impl crate::host_hint::Zeroable for RefSample {}
-
 impl RefSample {
     /// `1/Z` in FP64 (the warp's input), 0 where there is no surface.
     #[inline(always)]
     pub(crate) fn inv_z(&self) -> f64 {
         if self.z == 0.0 { 0.0 } else { 1.0 / self.z as f64 }
-    }
-}
-
-/// One traversal line of a reference's records: row `line`, or column
-/// `line` read with a stride of one row.
-#[derive(Clone, Copy)]
-pub(crate) struct Line<'a> {
-    recs: &'a [RefSample],
-    base: usize,
-    stride: usize,
-}
-
-impl<'a> Line<'a> {
-    /// The record at position `a` along the line.
-    #[inline(always)]
-    pub(crate) fn at(&self, a: usize) -> &'a RefSample {
-        &self.recs[self.base + a * self.stride]
     }
 }
 
@@ -170,21 +149,9 @@ impl HwReference {
         self.valid_tiles[w]
     }
 
-    /// The records of line `line` along `major` (row `line`, or column
-    /// `line`), indexed by the position along it.
-    #[inline(always)]
-    pub(crate) fn line_recs(&self, major: Major, line: u32) -> Line<'_> {
-        let w = self.width as usize;
-        match major {
-            Major::Row => Line { recs: &self.recs, base: line as usize * w, stride: 1 },
-            Major::Column => Line { recs: &self.recs, base: line as usize, stride: w },
-        }
-    }
-
-    /// The record of sample `(x, y)`.
-    #[inline(always)]
-    pub(crate) fn rec(&self, x: u32, y: u32) -> &RefSample {
-        &self.recs[y as usize * self.width as usize + x as usize]
+    /// Fixed mode: the formats the expander rounds to (`None`: float).
+    pub(crate) fn fixed_formats(&self) -> Option<&FixedFormats> {
+        self.fixed.as_ref()
     }
 
     /// The samples as the fetch unit expands them (unpacked again: the
@@ -225,22 +192,14 @@ impl HwReference {
         let grid = Grid::new(w, h);
         let mut valid_tiles = vec![0u64; grid.len() / 64];
         let mut depth = CoarseDepth::empty(w, h);
-        let mut recs = crate::host_hint::zeroed_vec::<RefSample>(w as usize * h as usize);
         let mut sat = 0u32;
-        // Straight from the packed form: the expanded image is never held
-        // whole (it was the peak of a reference's conversion).
+        // Straight from the packed form: neither the expanded image nor
+        // the records are held whole (they were the peak of a reference's
+        // conversion, and of a `simulate` run).
         packed.for_each_sample(|i, s| {
             let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
-            let mut rec = RefSample { colour: s.colour, slopes: s.slopes, z: s.z };
-            let iz = match &fixed {
-                None => 1.0 / rec.z as f64,
-                Some(f) => match quantise_expanded(&mut rec, x, y, f, &mut sat) {
-                    Some(iz) => iz,
-                    None => return,
-                },
-            };
+            let Some((rec, iz)) = record(s, x, y, fixed.as_ref(), &mut sat) else { return };
             depth.add(x, y, iz, rec.slopes);
-            recs[i] = rec;
             let gi = grid.index(x, y);
             valid_tiles[gi >> 6] |= 1 << (gi & 63);
         });
@@ -250,13 +209,33 @@ impl HwReference {
             height: h,
             depth,
             counters,
-            recs,
+            fixed,
             grid,
             valid_tiles,
             ref_inv_z,
             fetch_saturations: sat as u64,
         }
     }
+}
+
+/// The record the units read of expanded sample `s` at `(x, y)`, with the
+/// 1/Z the tile manager's depth map takes; in fixed mode through
+/// [`quantise_expanded`] (`None`: the sample is dropped). Saturations are
+/// added to `sat`.
+#[inline]
+pub(crate) fn record(
+    s: ExpandedSample,
+    x: u32,
+    y: u32,
+    fixed: Option<&FixedFormats>,
+    sat: &mut u32,
+) -> Option<(RefSample, f64)> {
+    let mut rec = RefSample { colour: s.colour, slopes: s.slopes, z: s.z };
+    let iz = match fixed {
+        None => 1.0 / rec.z as f64,
+        Some(f) => quantise_expanded(&mut rec, x, y, f, sat)?,
+    };
+    Some((rec, iz))
 }
 
 /// The fixed mode's expander (`docs/fixed-point.md`, fetch) on the record

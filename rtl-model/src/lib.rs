@@ -28,6 +28,7 @@ pub mod knob;
 pub mod lru;
 pub mod mem;
 pub mod qformat;
+pub mod ref_blocks;
 pub mod sample_image;
 pub mod schedule;
 pub mod shared_knobs;

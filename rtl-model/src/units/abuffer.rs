@@ -526,6 +526,11 @@ impl PackedReference {
         self.height / self.ss
     }
 
+    /// Super-samples per pixel per axis.
+    pub fn ss(&self) -> u32 {
+        self.ss
+    }
+
     /// True if the samples are stored raw (`abuffer_fragments == 0`).
     pub fn is_raw(&self) -> bool {
         self.raw.is_some()
@@ -599,9 +604,34 @@ impl PackedReference {
             }
             return;
         }
+        self.for_each_sample_in(0, 0, self.width_pixels(), self.height_pixels(), f);
+    }
+
+    /// [`PackedReference::for_each_sample`] over the whole pixels
+    /// `[px0, px1) x [py0, py1)` only (clipped to the frame; when stored
+    /// raw, the samples of those pixels, and of the partial pixels beyond
+    /// the last whole one if the rectangle reaches it), pixel after pixel:
+    /// a block of the reference expanded on its own.
+    pub fn for_each_sample_in(&self, px0: u32, py0: u32, px1: u32, py1: u32, mut f: impl FnMut(usize, ExpandedSample)) {
         let ss = self.ss;
-        for py in 0..self.height_pixels() {
-            for px in 0..self.width_pixels() {
+        let (px1, py1) = (px1.min(self.width_pixels()), py1.min(self.height_pixels()));
+        if let Some(raw) = &self.raw {
+            // Raw samples right of or below the last whole pixel belong to it.
+            let end = |p1: u32, n: u32, pixels: u32| if p1 == pixels { n } else { p1 * ss };
+            let (x1, y1) = (end(px1, self.width, self.width_pixels()), end(py1, self.height, self.height_pixels()));
+            for y in py0 * ss..y1 {
+                for x in px0 * ss..x1 {
+                    let i = y as usize * self.width as usize + x as usize;
+                    if raw.valid[i] {
+                        let (colour, z, slopes, key) = (raw.colour[i], raw.z[i], raw.inv_z_slopes[i], raw.object_id[i]);
+                        f(i, ExpandedSample { colour, z, slopes, key });
+                    }
+                }
+            }
+            return;
+        }
+        for py in py0..py1 {
+            for px in px0..px1 {
                 let frags = self.pixel_fragments(px, py);
                 for (k, i) in pixel_samples(self.width, ss, px, py).enumerate() {
                     let Some(fr) = frags.iter().find(|fr| fr.covers(k as u32)) else { continue };

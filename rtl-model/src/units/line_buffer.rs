@@ -36,7 +36,8 @@
 
 use super::kernel_setup::{Group, group_in};
 use super::transform::{TransformUnit, Transformed};
-use crate::hw_reference::HwReference;
+use crate::hw_reference::{HwReference, RefSample};
+use crate::ref_blocks::RefBlocks;
 use crate::traversal::Major;
 
 /// One buffered line: values at positions `lo..=hi` along it.
@@ -94,6 +95,8 @@ pub struct LineBuffer {
     /// independent loads overlap their misses where the incremental warp's
     /// chain would wait on each). No model state.
     inv_z_run: Vec<f64>,
+    /// Host scratch: the records of that run (`crate::ref_blocks`).
+    recs_run: Vec<RefSample>,
     /// The runs of warped positions computed since the last
     /// [`LineBuffer::take_warped`] (rule 4).
     warped: Vec<WarpedRun>,
@@ -148,14 +151,13 @@ impl LineBuffer {
 
     /// Make sure line `line` holds warped samples at `a0..=a1` (clipped to
     /// the image).
-    pub fn fill_warps(&mut self, s: Sources<'_>, major: Major, line: i64, a0: i64, a1: i64) {
+    pub fn fill_warps(&mut self, s: Sources<'_>, blocks: &mut RefBlocks, major: Major, line: i64, a0: i64, a1: i64) {
         let (lines, len) = self.extent(major);
         let (a0, a1) = (a0.max(0), a1.min(len - 1));
         if line < 0 || line >= lines || a0 > a1 {
             return;
         }
         let row = &mut self.warps[(line & 3) as usize];
-        let recs = s.r.line_recs(major, line as u32);
         let step = match major {
             Major::Row => (1.0, 0.0),
             Major::Column => (0.0, 1.0),
@@ -166,8 +168,10 @@ impl LineBuffer {
             }
             let (x0, y0) = at(major, line, b0);
             let out = &mut row.data[b0 as usize..=b1 as usize];
+            self.recs_run.clear();
+            blocks.line(s.r, major, line as u32, b0 as u32, b1 as u32, &mut self.recs_run);
             self.inv_z_run.clear();
-            self.inv_z_run.extend((b0 as usize..=b1 as usize).map(|a| s.r.inv_z(recs.at(a))));
+            self.inv_z_run.extend(self.recs_run.iter().map(|rec| s.r.inv_z(rec)));
             let run = &self.inv_z_run;
             s.tu.warp_run((x0 as f64, y0 as f64), step, |k| run[k], out);
             for (a, o) in (b0..=b1).zip(out.iter_mut()) {

@@ -9,9 +9,11 @@
 //! setup emits it. Kernel setup's control (`KernelSetupStage`) decides when
 //! each kernel leaves; this file decides nothing about time.
 //!
-//! Ports: in, the reference (records, valid map) and the warp's transform
-//! unit, through the line buffer; out, a [`LineWork`] per line: the
-//! emissions and the runs of positions the line buffer warped for it.
+//! Ports: in, the reference (its records through the block copy
+//! `crate::ref_blocks::RefBlocks`, which this computation owns and lends
+//! the line buffer; its valid map) and the warp's transform unit, through
+//! the line buffer; out, a [`LineWork`] per line: the emissions and the
+//! runs of positions the line buffer warped for it.
 //!
 //! Throughput: not a timed unit (kernel setup's lanes time the emissions).
 //!
@@ -39,6 +41,7 @@ use super::kernel_setup::{Kernel, backward_step, bounding_box, corners_counted, 
 use super::line_buffer::{LineBuffer, Sources, WarpedRun, at};
 use super::transform::TransformUnit;
 use crate::hw_reference::{HwReference, RefSample};
+use crate::ref_blocks::RefBlocks;
 use crate::traversal::{Line, Major};
 use std::sync::mpsc::{Receiver, Sender, SyncSender, channel, sync_channel};
 use std::thread::{Scope, ScopedJoinHandle};
@@ -86,6 +89,8 @@ pub struct LineKernels<'s> {
     /// its kernels are computed (a column sheet's records are a row apart;
     /// independent loads overlap their misses). No model state.
     recs_run: Vec<RefSample>,
+    /// The reference's records, a block at a time (`crate::ref_blocks`).
+    blocks: RefBlocks,
 }
 
 impl<'s> LineKernels<'s> {
@@ -93,7 +98,8 @@ impl<'s> LineKernels<'s> {
     /// (readied for the warp here) and discontinuity `threshold`.
     pub fn new(reference: &'s HwReference, tu: &'s TransformUnit, buffer: &'s mut LineBuffer, threshold: f64) -> Self {
         buffer.begin_warp(reference.width, reference.height);
-        LineKernels { reference, tu, buffer, threshold, recs_run: Vec::new() }
+        let blocks = RefBlocks::new(reference);
+        LineKernels { reference, tu, buffer, threshold, recs_run: Vec::new(), blocks }
     }
 
     /// Line `l` (number `index` in the schedule) into `out` (cleared
@@ -105,7 +111,7 @@ impl<'s> LineKernels<'s> {
         let (lo, hi) = (l.lo as i64, l.hi as i64);
         let buf = &mut *self.buffer;
         for line in [c - 1, c, c + 1] {
-            buf.fill_warps(src, major, line, lo - 1, hi + 1);
+            buf.fill_warps(src, &mut self.blocks, major, line, lo - 1, hi + 1);
         }
         for line in [c - 1, c] {
             buf.fill_groups(src, major, line, lo - 1, hi);
@@ -124,9 +130,8 @@ impl<'s> LineKernels<'s> {
         let neighbours = [buf.warp_row(major, c - 1), Some(wcur), buf.warp_row(major, c + 1)];
         let (gprev, gcur) = (buf.group_row(major, c - 1), buf.group_row(major, c));
         let group = |row: Option<&[Option<_>]>, a: i64| if a < 0 { None } else { row.and_then(|g| g[a as usize]) };
-        let recs = r.line_recs(major, l.line);
         self.recs_run.clear();
-        self.recs_run.extend((lo..=hi).map(|a| *recs.at(a as usize)));
+        self.blocks.line(r, major, l.line, lo as u32, hi as u32, &mut self.recs_run);
         for k in 0..l.len() as i64 {
             let a = if l.step > 0 { lo + k } else { hi - k };
             let (x, y) = at(major, c, a);
@@ -158,7 +163,7 @@ impl<'s> LineKernels<'s> {
                     && let Some(tn) = row[an as usize]
                 {
                     let (nx, ny) = at(major, c + dl, an);
-                    let nk = r.rec(nx, ny);
+                    let nk = self.blocks.rec(r, nx, ny);
                     // |(dx, dy)| of an 8-neighbour step (sqrt is exact here).
                     let offset = if dx != 0 && dy != 0 { std::f64::consts::SQRT_2 } else { 1.0 };
                     if nk.z > rec.z && !same_surface(&t, &tn, offset, threshold) {
