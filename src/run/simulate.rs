@@ -132,12 +132,14 @@ fn measure(
     // Each engine's references, made when a frame first needs them and
     // dropped after the last frame that warps them. A loaded reference is
     // prepared for the golden model and packed for the hardware model,
-    // then let go; the hardware model's records are expanded from the
-    // packed form only after the golden model has warped the frame and
-    // dropped what it no longer needs, so in a reference's last frame
-    // (every frame of a one-frame run) the two engines' expanded forms of
-    // it are not held at once (the process's peak memory,
-    // `docs/performance.md`); a reference later frames reuse keeps both.
+    // then let go; the hardware model's reference (valid bits and depth
+    // map; its records are expanded a block at a time as a warp runs,
+    // `postwarp_rtl::ref_blocks`) is made from the packed form only after
+    // the golden model has warped the frame and dropped what it no longer
+    // needs, so in a reference's last frame (every frame of a one-frame
+    // run) the golden model's prepared form and the hardware model's are
+    // not held at once (the process's peak memory, `docs/performance.md`);
+    // a reference later frames reuse keeps both.
     let mut golden_refs: HashMap<usize, GoldenRefs> = HashMap::new();
     let mut packed: HashMap<usize, Packed> = HashMap::new();
     let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
