@@ -18,7 +18,7 @@
 //! writes the A-buffer format directly, TR98 §10).
 
 use crate::config::EngineConfig;
-use crate::qformat::{FixedFormats, QFormat};
+use crate::qformat::FixedFormats;
 use crate::sample_image::SampleImage;
 use crate::schedule::CoarseDepth;
 use crate::traversal::Major;
@@ -43,8 +43,6 @@ pub struct HwReference {
     fixed: Option<FixedFormats>,
     /// The layout of `valid_tiles` (and of the engine's per-sample bits).
     pub(crate) grid: Grid,
-    /// Fixed mode: the format the expander rounds 1/Z to ([`HwReference::inv_z`]).
-    ref_inv_z: Option<QFormat>,
     /// Fixed mode: values the expander saturated (colour channels, 1/Z,
     /// slopes, and samples dropped for coordinates beyond `q_ref_coord`),
     /// over every valid sample (counts; 0 in float mode).
@@ -132,9 +130,9 @@ impl HwReference {
     #[inline(always)]
     pub(crate) fn inv_z(&self, rec: &RefSample) -> f64 {
         let v = rec.inv_z();
-        match self.ref_inv_z {
+        match &self.fixed {
             None => v,
-            Some(f) => f.quantise(v).0,
+            Some(f) => f.ref_inv_z.quantise(v).0,
         }
     }
 
@@ -187,7 +185,6 @@ impl HwReference {
     /// pack a loaded reference, let the loaded image go, and expand later.
     pub fn from_packed(packed: PackedReference, counters: AbufferCounters, cfg: &EngineConfig) -> HwReference {
         let fixed = cfg.fixed_formats().ok().flatten();
-        let ref_inv_z = fixed.as_ref().map(|f| f.ref_inv_z);
         let (w, h) = (packed.width(), packed.height());
         let grid = Grid::new(w, h);
         let mut valid_tiles = vec![0u64; grid.len() / 64];
@@ -212,7 +209,6 @@ impl HwReference {
             fixed,
             grid,
             valid_tiles,
-            ref_inv_z,
             fetch_saturations: sat as u64,
         }
     }

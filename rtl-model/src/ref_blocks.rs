@@ -47,8 +47,6 @@ const NONE: u32 = u32::MAX;
 pub struct RefBlocks {
     /// Block side (samples).
     side: u32,
-    /// Reference size (samples).
-    size: (u32, u32),
     /// Blocks per row.
     blocks_x: u32,
     /// Per block: its slot, or [`NONE`].
@@ -79,11 +77,9 @@ impl RefBlocks {
     /// (at least one).
     pub fn with_capacity(r: &HwReference, cap: usize) -> RefBlocks {
         let side = BLOCK_PIXELS * r.packed.ss();
-        let size = (r.width, r.height);
-        let (bx, by) = (size.0.div_ceil(side).max(1), size.1.div_ceil(side).max(1));
+        let (bx, by) = (r.width.div_ceil(side).max(1), r.height.div_ceil(side).max(1));
         RefBlocks {
             side,
-            size,
             blocks_x: bx,
             slot_of: vec![NONE; (bx * by) as usize],
             block_in: Vec::new(),
@@ -145,7 +141,7 @@ impl RefBlocks {
     /// not held (rule 2).
     #[inline]
     fn slot(&mut self, r: &HwReference, x: u32, y: u32) -> usize {
-        debug_assert!(x < self.size.0 && y < self.size.1, "({x}, {y}) is off the reference");
+        debug_assert!(x < r.width && y < r.height, "({x}, {y}) is off the reference");
         let b = (y / self.side) * self.blocks_x + x / self.side;
         self.uses += 1;
         let s = self.slot_of[b as usize];
@@ -181,10 +177,10 @@ impl RefBlocks {
         let per = (side * side) as usize;
         let block = &mut self.records[s * per..(s + 1) * per];
         block.fill(RefSample::default());
+        // Clipped to the frame there, the last block of a row or column
+        // reaches the partial pixels too (rule 1).
         let (px0, py0) = (bx * BLOCK_PIXELS, by * BLOCK_PIXELS);
-        // The last block of a row or column reaches the partial pixels too.
-        let last = |p: u32, pixels: u32| if p + BLOCK_PIXELS >= pixels { pixels } else { p + BLOCK_PIXELS };
-        let (px1, py1) = (last(px0, r.packed.width_pixels()), last(py0, r.packed.height_pixels()));
+        let (px1, py1) = (px0 + BLOCK_PIXELS, py0 + BLOCK_PIXELS);
         let fixed = r.fixed_formats();
         let w = r.width as usize;
         let mut sat = 0;

@@ -596,14 +596,7 @@ impl PackedReference {
     /// expands it, with its row-major index: pixel after pixel (or in
     /// index order when stored raw). What a consumer that keeps only part
     /// of each sample reads, without the whole expanded image.
-    pub fn for_each_sample(&self, mut f: impl FnMut(usize, ExpandedSample)) {
-        if let Some(raw) = &self.raw {
-            for i in raw.valid.iter_ones() {
-                let (colour, z, slopes, key) = (raw.colour[i], raw.z[i], raw.inv_z_slopes[i], raw.object_id[i]);
-                f(i, ExpandedSample { colour, z, slopes, key });
-            }
-            return;
-        }
+    pub fn for_each_sample(&self, f: impl FnMut(usize, ExpandedSample)) {
         self.for_each_sample_in(0, 0, self.width_pixels(), self.height_pixels(), f);
     }
 
