@@ -220,7 +220,8 @@ fn reference_bytes_by_rectangle() {
     for (what, form) in [("packed", &packed), ("raw", &raw)] {
         let mut seen = SampleImage::empty(img.width, img.height);
         let mut n = 0;
-        form.for_each_sample(|i, s| {
+        form.for_each_sample(|x, y, s| {
+            let i = seen.index(x, y);
             assert!(!seen.valid[i], "{what}: sample {i} visited twice");
             (seen.colour[i], seen.z[i], seen.inv_z_slopes[i], seen.object_id[i]) = (s.colour, s.z, s.slopes, s.key);
             seen.valid.set(i, true);

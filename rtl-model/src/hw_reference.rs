@@ -193,8 +193,7 @@ impl HwReference {
         // Straight from the packed form: neither the expanded image nor
         // the records are held whole (they were the peak of a reference's
         // conversion, and of a `simulate` run).
-        packed.for_each_sample(|i, s| {
-            let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
+        packed.for_each_sample(|x, y, s| {
             let Some((rec, iz)) = record(s, x, y, fixed.as_ref(), &mut sat) else { return };
             depth.add(x, y, iz, rec.slopes);
             let gi = grid.index(x, y);

@@ -175,17 +175,16 @@ impl RefBlocks {
         let (bx, by) = (b % self.blocks_x, b / self.blocks_x);
         let (x0, y0) = (bx * side, by * side);
         let per = (side * side) as usize;
-        let block = &mut self.records[s * per..(s + 1) * per];
-        block.fill(RefSample::default());
         // Clipped to the frame there, the last block of a row or column
         // reaches the partial pixels too (rule 1).
         let (px0, py0) = (bx * BLOCK_PIXELS, by * BLOCK_PIXELS);
         let (px1, py1) = (px0 + BLOCK_PIXELS, py0 + BLOCK_PIXELS);
+        r.packed.prefetch_pixels(px0, py0, px1, py1);
+        let block = &mut self.records[s * per..(s + 1) * per];
+        block.fill(RefSample::default());
         let fixed = r.fixed_formats();
-        let w = r.width as usize;
         let mut sat = 0;
-        r.packed.for_each_sample_in(px0, py0, px1, py1, |i, e| {
-            let (x, y) = ((i % w) as u32, (i / w) as u32);
+        r.packed.for_each_sample_in(px0, py0, px1, py1, |x, y, e| {
             if let Some((rec, _)) = record(e, x, y, fixed, &mut sat) {
                 block[((y - y0) * side + (x - x0)) as usize] = rec;
             }

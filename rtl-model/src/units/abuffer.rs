@@ -197,9 +197,36 @@ impl Fragment {
 
 /// Offset of sample `k` (raster order in the pixel) from the pixel centre,
 /// in sample steps: `i − (ss − 1)/2` per axis.
+#[inline]
 pub fn sample_offset(ss: u32, k: u32) -> (f32, f32) {
     let c = (ss as f32 - 1.0) / 2.0;
-    ((k % ss) as f32 - c, (k / ss) as f32 - c)
+    let (i, j) = sample_xy(ss, k);
+    (i as f32 - c, j as f32 - c)
+}
+
+/// Column and row `(k % ss, k / ss)` of sample `k` in its pixel. Host speed
+/// only: read from a table for the pixel sizes the packer takes (no integer
+/// division per sample, which was most of the cost of expanding a pixel).
+#[inline]
+pub fn sample_xy(ss: u32, k: u32) -> (u32, u32) {
+    const SIDES: usize = 5;
+    const TABLE: [[(u8, u8); MAX_SAMPLES_PER_PIXEL]; SIDES] = {
+        let mut t = [[(0u8, 0u8); MAX_SAMPLES_PER_PIXEL]; SIDES];
+        let mut ss = 1;
+        while ss < SIDES {
+            let mut k = 0;
+            while k < MAX_SAMPLES_PER_PIXEL {
+                t[ss][k] = ((k % ss) as u8, (k / ss) as u8);
+                k += 1;
+            }
+            ss += 1;
+        }
+        t
+    };
+    match TABLE.get(ss as usize).and_then(|row| row.get(k as usize)) {
+        Some(&(i, j)) if ss > 0 => (i as u32, j as u32),
+        _ => (k % ss, k / ss),
+    }
 }
 
 /// One covered super-sample as it enters the packer.
@@ -438,7 +465,10 @@ fn closest_pair(regs: &[Building]) -> (usize, usize) {
 /// Sample indices of pixel `(px, py)` in a row-major frame `width` samples
 /// wide, in the pixel's raster order.
 fn pixel_samples(width: u32, ss: u32, px: u32, py: u32) -> impl Iterator<Item = usize> {
-    (0..ss * ss).map(move |k| ((py * ss + k / ss) as usize) * width as usize + (px * ss + k % ss) as usize)
+    (0..ss * ss).map(move |k| {
+        let (i, j) = sample_xy(ss, k);
+        ((py * ss + j) as usize) * width as usize + (px * ss + i) as usize
+    })
 }
 
 /// A reference frame in memory: fragments per pixel (or raw samples when
@@ -582,7 +612,8 @@ impl PackedReference {
             return raw.clone();
         }
         let mut out = SampleImage::empty(self.width, self.height);
-        self.for_each_sample(|i, s| {
+        self.for_each_sample(|x, y, s| {
+            let i = out.index(x, y);
             out.colour[i] = s.colour;
             out.z[i] = s.z;
             out.inv_z_slopes[i] = s.slopes;
@@ -593,11 +624,43 @@ impl PackedReference {
     }
 
     /// Every sample holding a surface, as [`PackedReference::unpack`]
-    /// expands it, with its row-major index: pixel after pixel (or in
-    /// index order when stored raw). What a consumer that keeps only part
+    /// expands it, with its sample column and row: pixel after pixel (or
+    /// row after row when stored raw). What a consumer that keeps only part
     /// of each sample reads, without the whole expanded image.
-    pub fn for_each_sample(&self, f: impl FnMut(usize, ExpandedSample)) {
+    pub fn for_each_sample(&self, f: impl FnMut(u32, u32, ExpandedSample)) {
         self.for_each_sample_in(0, 0, self.width_pixels(), self.height_pixels(), f);
+    }
+
+    /// Ask the host CPU to fetch the headers and fragments of the whole
+    /// pixels `[px0, px1) x [py0, py1)` (a hint: no value changes). Host
+    /// speed only: a block's rows lie far apart in memory, so expanding it
+    /// otherwise misses the host's caches row after row, one at a time.
+    pub fn prefetch_pixels(&self, px0: u32, py0: u32, px1: u32, py1: u32) {
+        use crate::host_hint::prefetch;
+        let (pw, ph) = (self.width_pixels(), self.height_pixels());
+        let (px1, py1) = (px1.min(pw), py1.min(ph));
+        if self.raw.is_some() || px0 >= px1 {
+            return;
+        }
+        for py in py0..py1 {
+            let (a, b) = ((py * pw + px0) as usize, (py * pw + px1 - 1) as usize);
+            prefetch(&self.counts[a]);
+            prefetch(&self.counts[b]);
+            prefetch(&self.first[a]);
+            prefetch(&self.first[b]);
+        }
+        for py in py0..py1 {
+            let (a, b) = ((py * pw + px0) as usize, (py * pw + px1 - 1) as usize);
+            let (f0, f1) = (self.first[a] as usize, self.first[b] as usize + self.counts[b] as usize);
+            if let Some(frags) = self.frags.get(f0..f1) {
+                let bytes = frags.as_ptr_range();
+                let (mut p, end) = (bytes.start.cast::<u8>(), bytes.end.cast::<u8>());
+                while p < end {
+                    prefetch(p);
+                    p = p.wrapping_add(64);
+                }
+            }
+        }
     }
 
     /// [`PackedReference::for_each_sample`] over the whole pixels
@@ -605,7 +668,14 @@ impl PackedReference {
     /// raw, the samples of those pixels, and of the partial pixels beyond
     /// the last whole one if the rectangle reaches it), pixel after pixel:
     /// a block of the reference expanded on its own.
-    pub fn for_each_sample_in(&self, px0: u32, py0: u32, px1: u32, py1: u32, mut f: impl FnMut(usize, ExpandedSample)) {
+    pub fn for_each_sample_in(
+        &self,
+        px0: u32,
+        py0: u32,
+        px1: u32,
+        py1: u32,
+        mut f: impl FnMut(u32, u32, ExpandedSample),
+    ) {
         let ss = self.ss;
         let (px1, py1) = (px1.min(self.width_pixels()), py1.min(self.height_pixels()));
         if let Some(raw) = &self.raw {
@@ -617,7 +687,7 @@ impl PackedReference {
                     let i = y as usize * self.width as usize + x as usize;
                     if raw.valid[i] {
                         let (colour, z, slopes, key) = (raw.colour[i], raw.z[i], raw.inv_z_slopes[i], raw.object_id[i]);
-                        f(i, ExpandedSample { colour, z, slopes, key });
+                        f(x, y, ExpandedSample { colour, z, slopes, key });
                     }
                 }
             }
@@ -626,10 +696,15 @@ impl PackedReference {
         for py in py0..py1 {
             for px in px0..px1 {
                 let frags = self.pixel_fragments(px, py);
-                for (k, i) in pixel_samples(self.width, ss, px, py).enumerate() {
-                    let Some(fr) = frags.iter().find(|fr| fr.covers(k as u32)) else { continue };
-                    let z = reference_depth(fr.inv_z_at(ss, k as u32));
-                    f(i, ExpandedSample { colour: fr.colour, z, slopes: fr.slopes, key: fr.key });
+                for k in 0..ss * ss {
+                    let Some(fr) = frags.iter().find(|fr| fr.covers(k)) else { continue };
+                    let z = reference_depth(fr.inv_z_at(ss, k));
+                    let (i, j) = sample_xy(ss, k);
+                    f(
+                        px * ss + i,
+                        py * ss + j,
+                        ExpandedSample { colour: fr.colour, z, slopes: fr.slopes, key: fr.key },
+                    );
                 }
             }
         }
