@@ -14,7 +14,7 @@
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
 use postwarp::bench::{BenchFrame, standard_spec};
 use postwarp::golden::config::GoldenConfig;
-use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
+use postwarp::golden::frame::{PreparedReference, Warper, inv_z_plane, prepare_reference};
 use postwarp::methods::baselines::forward_splat::forward_splat_with;
 use postwarp_rtl::{FrameCommands, SampleImage};
 use std::hint::black_box;
@@ -44,7 +44,9 @@ fn bench(c: &mut Criterion) {
     // Both methods warp the same samples: the references after the A-buffer.
     let refs: Vec<&SampleImage> = input.refs.iter().map(|p| &p.samples).collect();
     // And the same 1/Z planes, made once per reference.
-    let inv_z: Vec<&[f64]> = input.refs.iter().map(|p| p.inv_z.as_slice()).collect();
+    // The splat's input: each reference's 1/Z plane, made outside the timing.
+    let planes: Vec<Vec<f64>> = input.refs.iter().map(|p| inv_z_plane(&p.samples)).collect();
+    let inv_z: Vec<&[f64]> = planes.iter().map(Vec::as_slice).collect();
     let valid: u64 = refs.iter().map(|r| r.valid.count_ones() as u64).sum();
     let cfg = GoldenConfig::default();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("one-thread pool");

@@ -33,6 +33,14 @@
 //!    panics; a refused `madvise` leaves ordinary pages (it is advice).
 //! 5. Values never depend on the allocator: output bytes are the same with
 //!    it or without it.
+//! 6. With glibc, before the first block, the system allocator's mmap
+//!    threshold is fixed at [`MMAP_THRESHOLD`] (`mallopt`): every other
+//!    block of at least that size is mapped on its own and unmapped when
+//!    freed. glibc's default threshold slides up to each freed mapping's
+//!    size (up to 32 MiB), after which such blocks come from per-thread
+//!    arenas that keep what is freed: a `simulate` that loads, warps and
+//!    drops references one at a time then held 325 MB at its peak instead
+//!    of 281 MB, with no gain in time (`docs/performance.md`).
 //!
 //! Not modelled: explicit (hugetlbfs) pages, NUMA placement.
 
@@ -41,6 +49,10 @@ use std::alloc::{GlobalAlloc, Layout, System};
 /// Blocks of at least this many bytes get huge-page mappings (2 MiB, the
 /// x86-64 and common AArch64 huge-page size).
 pub const HUGE: usize = 2 << 20;
+
+/// Rule 6: other blocks of at least this many bytes are mapped on their
+/// own (1 MiB).
+pub const MMAP_THRESHOLD: usize = 1 << 20;
 
 /// Huge-page blocks live at once, at most (rule 3).
 pub const REGISTERED: usize = 1024;
@@ -171,13 +183,29 @@ fn is_large(layout: &Layout) -> bool {
 // `realloc` look the address up in the registry, so each block is freed by
 // the allocator that made it. Huge-page blocks are aligned to HUGE, which
 // `is_large` checks is at least the layout's alignment.
+/// Rule 6, once per process (an atomic load after the first call).
+#[inline]
+fn fix_mmap_threshold() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    {
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        // SAFETY: `mallopt` only sets a parameter of the C allocator; it
+        // is called before this allocator hands out its first block.
+        ONCE.call_once(|| unsafe {
+            libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD as libc::c_int);
+        });
+    }
+}
+
 unsafe impl GlobalAlloc for HugePageAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        fix_mmap_threshold();
         // SAFETY: forwarded contract (rule 1: never a huge-page block).
         unsafe { System.alloc(layout) }
     }
 
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        fix_mmap_threshold();
         #[cfg(target_os = "linux")]
         if is_large(&layout) {
             let p = large::alloc_registered(layout.size());

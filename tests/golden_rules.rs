@@ -185,3 +185,43 @@ fn freeing_the_working_buffers_changes_no_frame() {
         assert_eq!(out.stats.fallback_filled > 0, k == 4, "frame {k}: the fallback pass ran only in the last");
     }
 }
+
+/// `Warper::warp_frame_streamed` asks for each warp's reference once, in
+/// warp order, just before that warp (the previous one's is already
+/// dropped), and gives the frame `warp_frame` gives; the first error of the
+/// source stops the frame and is what it returns.
+#[test]
+fn a_streamed_frame_asks_each_reference_once_and_equals_the_frame() {
+    use postwarp::golden::frame::{PreparedReference, Warper};
+    use std::rc::Rc;
+    let cfg = GoldenConfig::default();
+    let layers = [background(), Layer { z: 4.0, x0: -0.4, x1: 0.1, colour: red }];
+    let refs: Vec<(Camera, SampleImage)> =
+        [-0.2, 0.3].iter().map(|&x| (at_x(24, 16, x), render(&at_x(24, 16, x), 2, &layers))).collect();
+    let cams: Vec<(usize, Camera)> = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
+    let cmd = FrameCommands::new(0, at_x(24, 16, 0.05), 2, &cams);
+    let whole = run(&at_x(24, 16, 0.05), &refs, 2, &cfg);
+    let mut asked = Vec::new();
+    let mut alive: Vec<std::rc::Weak<PreparedReference>> = Vec::new();
+    let out = Warper::new()
+        .warp_frame_streamed(&cmd, &cfg, |j| {
+            // The earlier warps' references are gone by the time the next is asked for.
+            assert!(alive.iter().all(|w| w.upgrade().is_none()), "warp {j}: an earlier reference is still held");
+            asked.push(j);
+            let p = Rc::new(prepare_reference(&refs[j].1, 2, &cfg));
+            alive.push(Rc::downgrade(&p));
+            Ok::<_, String>(p)
+        })
+        .expect("no error");
+    assert_eq!(asked, [0, 1]);
+    assert_eq!((&out.samples, &out.pixels, &out.covered), (&whole.samples, &whole.pixels, &whole.covered));
+    assert_eq!(out.stats, whole.stats);
+    let mut asked = Vec::new();
+    let err = Warper::new()
+        .warp_frame_streamed(&cmd, &cfg, |j| {
+            asked.push(j);
+            if j == 0 { Ok(Rc::new(prepare_reference(&refs[0].1, 2, &cfg))) } else { Err(format!("no reference {j}")) }
+        })
+        .expect_err("the source failed");
+    assert_eq!((err.as_str(), asked.as_slice()), ("no reference 1", &[0, 1][..]));
+}

@@ -32,7 +32,7 @@
 
 use crate::bench::{BenchFrame, quick_spec, standard_spec};
 use crate::golden::config::GoldenConfig;
-use crate::golden::frame::{PreparedReference, Warper, prepare_reference};
+use crate::golden::frame::{PreparedReference, Warper, inv_z_plane, prepare_reference};
 use crate::methods::baselines::forward_splat::forward_splat_with;
 use crate::trace::Trace;
 use anyhow::Context;
@@ -292,7 +292,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     {
         let refs: Vec<&SampleImage> = prepared.iter().map(|p| &p.samples).collect();
-        let inv_z: Vec<&[f64]> = prepared.iter().map(|p| p.inv_z.as_slice()).collect();
+        // The splat's input: each reference's 1/Z plane, made outside the timing.
+        let planes: Vec<Vec<f64>> = prepared.iter().map(|p| inv_z_plane(&p.samples)).collect();
+        let inv_z: Vec<&[f64]> = planes.iter().map(Vec::as_slice).collect();
         let t = pool.install(|| {
             repeat(repeats, true, || {
                 black_box(forward_splat_with(&frame.cmd, &refs, &inv_z));

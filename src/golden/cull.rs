@@ -78,16 +78,12 @@ pub struct BlockDepth {
 
 /// The depth ranges of `img`'s blocks.
 pub fn block_depth(img: &SampleImage) -> BlockDepth {
-    block_depth_with(img, |i| 1.0 / img.z[i] as f64)
+    block_depth_of(img, |i| 1.0 / img.z[i] as f64)
 }
 
-/// The depth ranges of `img`'s blocks with the 1/Z plane `inv_z` (the
-/// fixed mode's rounded 1/Z).
-pub fn block_depth_of(img: &SampleImage, inv_z: &[f64]) -> BlockDepth {
-    block_depth_with(img, |i| inv_z[i])
-}
-
-fn block_depth_with(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> BlockDepth {
+/// The depth ranges of `img`'s blocks with sample `i`'s 1/Z read as
+/// `inv_z(i)` (the fixed mode's rounded 1/Z).
+pub fn block_depth_of(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> BlockDepth {
     let (w, h) = (img.width, img.height);
     let (bw, bh) = (w.div_ceil(BLOCK), h.div_ceil(BLOCK));
     let mut lo = vec![f64::INFINITY; (bw * bh) as usize];

@@ -43,6 +43,7 @@ use super::warp_aa;
 use bitvec::vec::BitVec;
 use glam::DVec2;
 use postwarp_rtl::camera::Epipole;
+use postwarp_rtl::qformat::QFormat;
 use postwarp_rtl::{FrameCommands, SampleImage};
 use serde::Serialize;
 
@@ -174,12 +175,45 @@ pub struct PreparedReference {
     pub abuffer: AbufferStats,
     /// Per-block depth ranges for off-screen culling.
     pub blocks: cull::BlockDepth,
-    /// `1/Z` of every sample (0 where there is no surface), computed once
-    /// (rounded to `q_ref_inv_z` in fixed mode).
-    pub inv_z: Vec<f64>,
+    /// Fixed mode: the format `1/Z` is read in (`q_ref_inv_z`); `None` in
+    /// float mode. `1/Z` is computed where it is read
+    /// ([`PreparedReference::inv_z`]) rather than kept as a plane: 8 bytes
+    /// per sample of a run's peak memory (`docs/performance.md`).
+    pub ref_inv_z: Option<QFormat>,
     /// Fixed mode: values the reference's expansion saturated (counts; 0 in
     /// float mode).
     pub fetch_saturations: u64,
+}
+
+impl PreparedReference {
+    /// `1/Z` of sample `i` (0 where there is no surface; rounded to
+    /// `q_ref_inv_z` in fixed mode, its saturations counted once, in
+    /// `fetch_saturations`).
+    #[inline(always)]
+    pub fn inv_z(&self, i: usize) -> f64 {
+        if !self.samples.valid[i] {
+            return 0.0;
+        }
+        let v = 1.0 / self.samples.z[i] as f64;
+        match self.ref_inv_z {
+            None => v,
+            Some(f) => f.q(v, &mut 0),
+        }
+    }
+
+    /// [`PreparedReference::inv_z`] of samples `i..i + out.len()`.
+    #[inline]
+    pub fn inv_z_into(&self, i: usize, out: &mut [f64]) {
+        let (z, valid) = (&self.samples.z[i..i + out.len()], &self.samples.valid[i..i + out.len()]);
+        for ((o, z), v) in out.iter_mut().zip(z).zip(valid.iter().by_vals()) {
+            *o = if v { 1.0 / *z as f64 } else { 0.0 };
+        }
+        if let Some(f) = self.ref_inv_z {
+            for o in out.iter_mut().filter(|o| **o != 0.0) {
+                *o = f.q(*o, &mut 0);
+            }
+        }
+    }
 }
 
 fn abuffer_params(ss: u32, cfg: &GoldenConfig) -> AbufferParams {
@@ -200,8 +234,7 @@ pub fn prepare_reference_owned(mut samples: SampleImage, ss: u32, cfg: &GoldenCo
     samples.object_id = Vec::new();
     let Some(f) = cfg.fixed_formats().ok().flatten() else {
         let blocks = cull::block_depth(&samples);
-        let inv_z = inv_z_plane(&samples);
-        return PreparedReference { samples, abuffer, blocks, inv_z, fetch_saturations: 0 };
+        return PreparedReference { samples, abuffer, blocks, ref_inv_z: None, fetch_saturations: 0 };
     };
     // Fixed mode (`docs/fixed-point.md`, fetch): colours to `q_colour`,
     // slopes to `q_slope`, 1/Z to `q_ref_inv_z`; a sample whose
@@ -223,12 +256,11 @@ pub fn prepare_reference_owned(mut samples: SampleImage, ss: u32, cfg: &GoldenCo
             *g = f.slope.q(*g as f64, &mut sat) as f32;
         }
     }
-    let mut inv_z = inv_z_plane(&samples);
     for i in samples.valid.iter_ones() {
-        inv_z[i] = f.ref_inv_z.q(inv_z[i], &mut sat);
+        f.ref_inv_z.q(1.0 / samples.z[i] as f64, &mut sat);
     }
-    let blocks = cull::block_depth_of(&samples, &inv_z);
-    PreparedReference { samples, abuffer, blocks, inv_z, fetch_saturations: sat as u64 }
+    let blocks = cull::block_depth_of(&samples, |i| f.ref_inv_z.q(1.0 / samples.z[i] as f64, &mut 0));
+    PreparedReference { samples, abuffer, blocks, ref_inv_z: Some(f.ref_inv_z), fetch_saturations: sat as u64 }
 }
 
 /// The 1/Z plane of a reference: `1/Z` where valid, 0 elsewhere (made
@@ -247,6 +279,21 @@ impl Warper {
     /// Produce derived frame `cmd` from its prepared references (`refs[j]`
     /// for `cmd.warps[j]`).
     pub fn warp_frame(&mut self, cmd: &FrameCommands, refs: &[&PreparedReference], cfg: &GoldenConfig) -> GoldenFrame {
+        let Ok(frame) = self.warp_frame_streamed(cmd, cfg, |j| Ok::<_, std::convert::Infallible>(refs[j]));
+        frame
+    }
+
+    /// [`Warper::warp_frame`] with each warp's prepared reference asked of
+    /// `reference(j)` just before warp `j` and dropped just after it, so a
+    /// caller that makes references on demand holds one at a time (the
+    /// peak memory of `simulate`, `docs/performance.md`). The first error
+    /// of `reference` stops the frame.
+    pub fn warp_frame_streamed<R: std::ops::Deref<Target = PreparedReference>, E>(
+        &mut self,
+        cmd: &FrameCommands,
+        cfg: &GoldenConfig,
+        mut reference: impl FnMut(usize) -> Result<R, E>,
+    ) -> Result<GoldenFrame, E> {
         let ss = cmd.supersample;
         let dst = cmd.derived_camera.sample_grid(ss);
         let mut d = DestPlanes::new(dst.intrinsics.width, dst.intrinsics.height);
@@ -256,7 +303,9 @@ impl Warper {
         let fixed = cfg.fixed_formats().ok().flatten();
         st.saturations = fixed.as_ref().map(|_| SaturationCounts::default());
         let centres: Vec<_> = cmd.warps.iter().map(|w| w.reference_camera.pose.position).collect();
-        for (j, (warp, prepared)) in cmd.warps.iter().zip(refs).enumerate() {
+        for (j, warp) in cmd.warps.iter().enumerate() {
+            let prepared = reference(j)?;
+            let prepared = &*prepared;
             let img = &prepared.samples;
             let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
                 .with_fixed(fixed.clone());
@@ -300,7 +349,7 @@ impl Warper {
             d.drop_cache_planes();
         }
         let (pixels, covered) = resolve(&d, ss);
-        GoldenFrame { samples: d, pixels, covered, unseen, stats: st }
+        Ok(GoldenFrame { samples: d, pixels, covered, unseen, stats: st })
     }
 }
 

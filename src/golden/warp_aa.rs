@@ -197,7 +197,7 @@ pub(super) fn warp_reference(
     if q.y0 < q.y1 {
         transform_row(ctx, prepared, &q, q.y0 + 1, &mut rows.warped[1], st);
     }
-    let phase_a = PhaseA { ctx, img, inv_z: &prepared.inv_z, cfg, q, live: &live, size: (d.width, d.height) };
+    let phase_a = PhaseA { ctx, img, prepared, cfg, q, live: &live, size: (d.width, d.height) };
     for y in q.y0..=q.y1 {
         let r = (y - q.y0) as usize;
         if y < q.y1 {
@@ -237,7 +237,7 @@ pub(super) fn warp_reference(
             let i = img.index(kern.x, kern.y);
             batch.x[k] = kern.x as f64;
             batch.y[k] = kern.y as f64;
-            batch.inv_z[k] = prepared.inv_z[i];
+            batch.inv_z[k] = prepared.inv_z(i);
             batch.sx[k] = img.inv_z_slopes[i][0] as f64;
             batch.sy[k] = img.inv_z_slopes[i][1] as f64;
         }
@@ -343,7 +343,7 @@ impl PhaseB<'_> {
         };
         let better = || match kern.better.get() {
             UNKNOWN => {
-                let m = self.ctx.better_mask(kern.x as f64, kern.y as f64, self.prepared.inv_z[i], img.inv_z_slopes[i]);
+                let m = self.ctx.better_mask(kern.x as f64, kern.y as f64, self.prepared.inv_z(i), img.inv_z_slopes[i]);
                 kern.better.set(m as u16);
                 m
             }
@@ -369,27 +369,23 @@ fn transform_row(
     let n = q.width();
     let mut batch = [[0.0; 4]; BATCH];
     let mut ok = [false; BATCH];
+    let mut inv_z = [0.0; BATCH];
     for c in (0..n).step_by(BATCH) {
         let m = (n - c).min(BATCH);
         let i = i0 + c;
+        prepared.inv_z_into(i, &mut inv_z[..m]);
         // A batch at a time (the transform's loop vectorises).
         if ctx.fixed().is_some() {
             ctx.transform_batch_fixed(
                 (q.x0 as usize + c) as f64,
                 y as f64,
-                &prepared.inv_z[i..i + m],
+                &inv_z[..m],
                 &mut batch[..m],
                 &mut ok[..m],
                 &mut out.sat[c..c + m],
             );
         } else {
-            ctx.transform_batch(
-                (q.x0 as usize + c) as f64,
-                y as f64,
-                &prepared.inv_z[i..i + m],
-                &mut batch[..m],
-                &mut ok[..m],
-            );
+            ctx.transform_batch((q.x0 as usize + c) as f64, y as f64, &inv_z[..m], &mut batch[..m], &mut ok[..m]);
         }
         let valid = &img.valid[i..i + m];
         for k in 0..m {
@@ -479,8 +475,8 @@ fn fix_group_row(corner: postwarp_rtl::qformat::QFormat, g: &mut GroupRow) {
 struct PhaseA<'a> {
     ctx: &'a WarpContext,
     img: &'a SampleImage,
-    /// The reference's 1/Z plane (rounded in fixed mode).
-    inv_z: &'a [f64],
+    /// The reference (its 1/Z, rounded in fixed mode).
+    prepared: &'a PreparedReference,
     cfg: &'a GoldenConfig,
     q: Region,
     live: &'a cull::LiveBlocks,
@@ -542,7 +538,8 @@ impl PhaseA<'_> {
                 } else {
                     let group_sat = |gx: u32, gy: u32| rows.groups[(gy - q.y0) as usize % 2].csat[(gx - q.x0) as usize];
                     let i = img.index(x, y);
-                    let (c, edges, sat) = corners_counted(ctx, img, self.inv_z[i], &t, group_at, group_sat, x, y);
+                    let (c, edges, sat) =
+                        corners_counted(ctx, img, self.prepared.inv_z(i), &t, group_at, group_sat, x, y);
                     let (x0, x1, y0, y1) = bounding_box(&c);
                     let rc = rect(x0, x1, y0, y1, (t.pos.x, t.pos.y), cfg.kernel_limit, cfg.over_limit, self.size);
                     (rc, edges, [t.sat + sat[0], sat[1]])

@@ -49,7 +49,9 @@ use postwarp_rtl::hw_reference::abuffer_params;
 use postwarp_rtl::units::abuffer::{AbufferCounters, PackedReference, pack_reference};
 use rayon::prelude::*;
 use std::collections::HashMap;
+use std::collections::hash_map::Entry;
 use std::path::Path;
+use std::rc::Rc;
 use std::time::Instant;
 
 /// What a simulation produced.
@@ -129,18 +131,19 @@ fn measure(
         g.arith = "float".into();
         g
     });
-    // Each engine's references, made when a frame first needs them and
-    // dropped after the last frame that warps them. A loaded reference is
-    // prepared for the golden model and packed for the hardware model,
-    // then let go; the hardware model's reference (valid bits and depth
-    // map; its records are expanded a block at a time as a warp runs,
-    // `postwarp_rtl::ref_blocks`) is made from the packed form only after
-    // the golden model has warped the frame and dropped what it no longer
-    // needs, so in a reference's last frame (every frame of a one-frame
-    // run) the golden model's prepared form and the hardware model's are
-    // not held at once (the process's peak memory, `docs/performance.md`);
-    // a reference later frames reuse keeps both.
-    let mut golden_refs: HashMap<usize, GoldenRefs> = HashMap::new();
+    // Each engine's references, made when a warp first needs them and
+    // dropped after the last warp that reads them. A reference is loaded
+    // just before the golden model's first warp of it, packed for the
+    // hardware model and prepared for the golden model, then let go; the
+    // golden model drops its prepared form as soon as that warp is done if
+    // no later warp reads it, so a one-frame run holds one reference's
+    // loaded or prepared form at a time. The hardware model's reference
+    // (valid bits and depth map; its records are expanded a block at a
+    // time as a warp runs, `postwarp_rtl::ref_blocks`) is made from the
+    // packed form after the golden model has warped the frame. The
+    // process's peak memory: `docs/performance.md`.
+    let mut golden_refs: HashMap<usize, Rc<PreparedReference>> = HashMap::new();
+    let mut float_refs: HashMap<usize, PreparedReference> = HashMap::new();
     let mut packed: HashMap<usize, Packed> = HashMap::new();
     let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
     let mut warper = Warper::new();
@@ -150,17 +153,19 @@ fn measure(
     let mut vs_float_luma_db = Vec::new();
     let mut frames = Vec::new();
     for (k, f) in trace.derived.iter().enumerate() {
-        let missing = |have: &dyn Fn(&usize) -> bool| -> Vec<usize> {
-            let mut m: Vec<usize> = f.references.iter().copied().filter(|r| !have(r)).collect();
-            m.sort_unstable();
-            m.dedup();
-            m
-        };
-        // The references not yet loaded, loaded, prepared and packed in
-        // parallel (each alone: the same planes whatever the thread count).
-        let loaded: Vec<anyhow::Result<(usize, GoldenRefs, Packed)>> = missing(&|r| golden_refs.contains_key(r))
-            .par_iter()
-            .map(|&r| {
+        let cmd = trace.frame_commands(k);
+        // The golden model first: its working buffers (the last frame's,
+        // `Warper::keep_buffers`) and the references this frame is the
+        // last to use go before the hardware model's are expanded.
+        let last = k + 1 == trace.derived.len();
+        warper.keep_buffers(!last);
+        float_warper.keep_buffers(!last);
+        let mut loading = std::time::Duration::ZERO;
+        let t = Instant::now();
+        let golden = warper.warp_frame_streamed(&cmd, &gcfg, |j| -> anyhow::Result<Rc<PreparedReference>> {
+            let r = f.references[j];
+            if let Entry::Vacant(prepared) = golden_refs.entry(r) {
+                let t = Instant::now();
                 let raw = trace.load_reference(r)?.samples;
                 let (float, hw) = rayon::join(
                     || float_gcfg.as_ref().map(|g| prepare_reference(&raw, ss, g)),
@@ -169,37 +174,24 @@ fn measure(
                         (pack_reference(&raw, &abuffer_params(&cfg), &mut c), c)
                     },
                 );
+                packed.insert(r, hw);
+                float_refs.extend(float.map(|p| (r, p)));
                 // Last: the loaded planes become the golden model's.
-                Ok((r, (prepare_reference_owned(raw, ss, &gcfg), float), hw))
-            })
-            .collect();
-        for l in loaded {
-            let (r, g, p) = l?;
-            golden_refs.insert(r, g);
-            packed.insert(r, p);
-        }
-        let cmd = trace.frame_commands(k);
-        // The golden model first: its working buffers (the last frame's,
-        // `Warper::keep_buffers`) and the references this frame is the
-        // last to use go before the hardware model's are packed.
-        let last = k + 1 == trace.derived.len();
-        warper.keep_buffers(!last);
-        float_warper.keep_buffers(!last);
-        let g_refs: Vec<&PreparedReference> = f.references.iter().map(|r| &golden_refs[r].0).collect();
-        let t = Instant::now();
-        let golden = warper.warp_frame(&cmd, &g_refs, &gcfg);
-        let golden_ms = t.elapsed().as_secs_f64() * 1e3;
+                prepared.insert(Rc::new(prepare_reference_owned(raw, ss, &gcfg)));
+                loading += t.elapsed();
+            }
+            let read_again = last_use[&r] > k || f.references[j + 1..].contains(&r);
+            Ok(if read_again { Rc::clone(&golden_refs[&r]) } else { golden_refs.remove(&r).expect("prepared above") })
+        })?;
+        let golden_ms = (t.elapsed() - loading).as_secs_f64() * 1e3;
         let float = float_gcfg.as_ref().map(|g| {
-            let f_refs: Vec<&PreparedReference> =
-                f.references.iter().filter_map(|r| golden_refs[r].1.as_ref()).collect();
+            let f_refs: Vec<&PreparedReference> = f.references.iter().filter_map(|r| float_refs.get(r)).collect();
             float_warper.warp_frame(&cmd, &f_refs, g).pixels
         });
-        golden_refs.retain(|r, _| last_use[r] > k);
-        // The hardware model's references not yet expanded, in parallel.
-        let expand: Vec<(usize, Packed)> = missing(&|r| hw_refs.contains_key(r))
-            .into_iter()
-            .map(|r| (r, packed.remove(&r).expect("packed when loaded")))
-            .collect();
+        float_refs.retain(|r, _| last_use[r] > k);
+        // The hardware model's references not yet expanded (those loaded
+        // for this frame), in parallel.
+        let expand: Vec<(usize, Packed)> = packed.drain().collect();
         let expanded: Vec<(usize, HwReference)> =
             expand.into_par_iter().map(|(r, (p, c))| (r, HwReference::from_packed(p, c, &cfg))).collect();
         hw_refs.extend(expanded);
@@ -280,10 +272,6 @@ fn measure(
     }
     Ok(SimulateRun { report, summary, vs_float_luma_db })
 }
-
-/// A reference prepared for the golden model, and in fixed mode for the
-/// float golden model.
-type GoldenRefs = (PreparedReference, Option<PreparedReference>);
 
 /// A reference packed for the hardware model, with the packer's counters,
 /// until its records are expanded (`HwReference::from_packed`).
