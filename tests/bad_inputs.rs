@@ -220,3 +220,27 @@ fn info_json_is_the_table() {
     let line = format!("move {:.4}, turn {:.2}", e["move_units"].as_f64().unwrap(), e["turn_deg"].as_f64().unwrap());
     assert!(table.contains(&line), "{line} not in\n{table}");
 }
+
+/// `simulate` decodes a frame's second reference beside its first and
+/// converts it only when its warp comes: a bad second reference is still
+/// one error naming its file and manifest line, whether its bytes are not
+/// an image (found while decoding ahead) or its depth is bad (found when
+/// converted).
+#[test]
+fn a_bad_second_reference_is_named_by_simulate() {
+    use postwarp::trace::{SlopeSource, Trace, write_reference_image};
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path();
+    let t = p.join("t");
+    common::copy_dir(&root().join("traces/occluders"), &t);
+    let trace = t.display().to_string();
+    let mut img = Trace::open(&t).unwrap().load_reference(1).unwrap().samples;
+    let i = img.valid.first_one().expect("a surface");
+    img.z[i] = -1.0;
+    let (x, y) = (i % img.width as usize, i / img.width as usize);
+    write_reference_image(&t.join("ref/0001.exr"), &img, SlopeSource::Exact).unwrap();
+    let at = format!("sample ({x}, {y})");
+    fails(&["simulate", &trace, "--out", "o"], p, &["ref/0001.exr", &at, "Z = -1", "postwarp.trace:"]);
+    std::fs::write(t.join("ref/0001.exr"), b"not an exr").unwrap();
+    fails(&["simulate", &trace, "--out", "o2"], p, &["ref/0001.exr", "not a readable OpenEXR", "postwarp.trace:"]);
+}

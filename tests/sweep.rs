@@ -104,23 +104,10 @@ fn the_hardware_rows_equal_the_golden_model_and_score_like_mark_aa() {
     assert_eq!(a[1..].iter().filter(|r| r[m] == "mark-aa").count(), 4, "two thresholds per trace");
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()))
-        } else {
-            std::fs::copy(&p, to.join(e.file_name())).map(|_| ()).unwrap()
-        }
-    }
-}
-
 #[test]
 fn a_resumed_sweep_recomputes_only_missing_points() {
     let d = tempfile::tempdir().unwrap();
-    copy_dir(base(), d.path());
+    crate::common::copy_dir(base(), d.path());
     let points = d.path().join("points");
     let mut files: Vec<PathBuf> = std::fs::read_dir(&points).unwrap().map(|e| e.unwrap().path()).collect();
     files.sort();

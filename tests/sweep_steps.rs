@@ -126,19 +126,6 @@ fn sliced() -> &'static Path {
     .path()
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        let p = e.path();
-        if p.is_dir() {
-            copy_dir(&p, &to.join(e.file_name()))
-        } else {
-            std::fs::copy(&p, to.join(e.file_name())).map(|_| ()).unwrap()
-        }
-    }
-}
-
 #[test]
 fn slices_merged_in_any_order_give_the_one_process_csv() {
     assert_eq!(without_host_time(sliced()), without_host_time(local()));
@@ -156,7 +143,7 @@ fn slices_merged_in_any_order_give_the_one_process_csv() {
     // The merged host times are the stored ones: merging again is the same bytes.
     let before = std::fs::read(sliced().join("results.csv")).unwrap();
     let d = tempfile::tempdir().unwrap();
-    copy_dir(sliced(), d.path());
+    crate::common::copy_dir(sliced(), d.path());
     ok(&["sweep", "merge", s(d.path())]);
     assert_eq!(std::fs::read(d.path().join("results.csv")).unwrap(), before);
 }
@@ -164,7 +151,7 @@ fn slices_merged_in_any_order_give_the_one_process_csv() {
 #[test]
 fn a_missing_slice_is_named_and_nothing_is_written() {
     let d = tempfile::tempdir().unwrap();
-    copy_dir(sliced(), d.path());
+    crate::common::copy_dir(sliced(), d.path());
     std::fs::remove_file(d.path().join("results.csv")).unwrap();
     let points = planned_points(d.path());
     // Points 11 and 13 are slice 2 at 5 per task, slices 5 and 6 at 2.
@@ -192,7 +179,7 @@ fn a_missing_slice_is_named_and_nothing_is_written() {
 #[test]
 fn a_corrupt_point_file_is_recomputed() {
     let d = tempfile::tempdir().unwrap();
-    copy_dir(sliced(), d.path());
+    crate::common::copy_dir(sliced(), d.path());
     let points = planned_points(d.path());
     let file = |i: usize| d.path().join("points").join(format!("{}.json", points[i]));
     let text = std::fs::read_to_string(file(7)).unwrap();
@@ -249,7 +236,7 @@ fn bad_indices_and_unplanned_directories_are_refused() {
 #[test]
 fn a_plan_is_refused_once_its_traces_or_points_no_longer_match() {
     let d = tempfile::tempdir().unwrap();
-    copy_dir(&root().join("traces/room"), &d.path().join("room"));
+    crate::common::copy_dir(&root().join("traces/room"), &d.path().join("room"));
     let spec = d.path().join("room.toml");
     std::fs::write(&spec, "runs = 1\nmethods = \"forward-splat\"\n[[traces]]\npath = \"room\"\nframes = 1\n").unwrap();
     let out = d.path().join("out");

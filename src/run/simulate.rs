@@ -39,10 +39,9 @@ use crate::report::quality::Truth;
 use crate::report::simulate::{HwFrame, VsGolden};
 use crate::report::timeline::{TimelineMeta, chrome_trace};
 use crate::run::hw_config::golden_config_for;
-use crate::trace::Trace;
+use crate::trace::{DecodedReference, Trace};
 use anyhow::Context;
 use bitvec::vec::BitVec;
-use postwarp_rtl::SampleImage;
 use postwarp_rtl::budget::Budget;
 use postwarp_rtl::config::EngineConfig;
 use postwarp_rtl::engine::{FrameOutput, HwReference};
@@ -147,7 +146,7 @@ fn measure(
     let mut golden_refs: HashMap<usize, Rc<PreparedReference>> = HashMap::new();
     let mut float_refs: HashMap<usize, PreparedReference> = HashMap::new();
     let mut packed: HashMap<usize, Packed> = HashMap::new();
-    let mut decoded: HashMap<usize, SampleImage> = HashMap::new();
+    let mut decoded: HashMap<usize, DecodedReference> = HashMap::new();
     let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
     let mut warper = Warper::new();
     let mut float_warper = Warper::new();
@@ -169,7 +168,8 @@ fn measure(
             let r = f.references[j];
             // The next reference this frame warps that nothing holds yet is
             // decoded beside this one (the decoder is sequential), and
-            // waits decoded, not packed or prepared, until its warp.
+            // waits in the file's sample formats, not converted, packed or
+            // prepared, until its warp.
             let ahead = f.references[j + 1..]
                 .iter()
                 .copied()
@@ -177,13 +177,13 @@ fn measure(
             if let Entry::Vacant(prepared) = golden_refs.entry(r) {
                 let t = Instant::now();
                 let raw = match decoded.remove(&r) {
-                    Some(raw) => raw,
+                    Some(d) => trace.reference_of(r, d)?.samples,
                     None => {
                         let (raw, next) =
-                            rayon::join(|| trace.load_reference(r), || ahead.map(|n| (n, trace.load_reference(n))));
+                            rayon::join(|| trace.load_reference(r), || ahead.map(|n| (n, trace.decode_reference(n))));
                         let raw = raw?.samples;
                         if let Some((n, next)) = next {
-                            decoded.insert(n, next?.samples);
+                            decoded.insert(n, next?);
                         }
                         raw
                     }

@@ -57,10 +57,37 @@ pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedR
 /// Decode the bytes of a reference image file of `expected` `(width,
 /// height)` samples; `file` only names the source in errors.
 pub fn decode_reference_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
+    DecodedReference { ch: Channels::decode(bytes, file, expected)?, expected }.into_loaded()
+}
+
+/// A reference image decoded but not yet checked and converted to
+/// samples: its channels as the file stores them (a trace's half colour:
+/// 22 bytes per sample where the loaded reference takes 28), for a
+/// reference decoded ahead of its use.
+pub struct DecodedReference {
+    ch: Channels,
+    expected: (u32, u32),
+}
+
+/// Read and decode a reference image of `expected` `(width, height)`
+/// samples, leaving the checks and the conversion to
+/// [`DecodedReference::into_loaded`].
+pub fn decode_reference_file(path: &Path, expected: (u32, u32)) -> Result<DecodedReference, TraceError> {
+    Ok(DecodedReference { ch: Channels::decode(&read_image_file(path)?, path, expected)?, expected })
+}
+
+impl DecodedReference {
+    /// Check the decoded channels (module rules) and convert them to the
+    /// loaded reference.
+    pub fn into_loaded(self) -> Result<LoadedReference, TraceError> {
+        reference_of_channels(self.ch, self.expected)
+    }
+}
+
+fn reference_of_channels(mut ch: Channels, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
     // Each channel is taken out of the decoded ones as it becomes a plane
     // (moved when stored as float), so the decoded channels and the image
     // are never both held whole (a loaded reference's peak memory).
-    let mut ch = Channels::decode(bytes, file, expected)?;
     let (w, h) = expected;
     let n = w as usize * h as usize;
     let colour = ch.take_rgb()?;

@@ -122,3 +122,17 @@ pub fn dest_frame(d: &DestPlanes) -> DestFrame {
         fill_valid: d.fill_valid.clone(),
     }
 }
+
+/// Copy directory `from` (a trace, a sweep) into `to`, recursively.
+pub fn copy_dir(from: &std::path::Path, to: &std::path::Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for e in std::fs::read_dir(from).unwrap() {
+        let e = e.unwrap();
+        let p = e.path();
+        if p.is_dir() {
+            copy_dir(&p, &to.join(e.file_name()))
+        } else {
+            std::fs::copy(&p, to.join(e.file_name())).map(|_| ()).unwrap()
+        }
+    }
+}
