@@ -178,11 +178,6 @@ fn is_large(layout: &Layout) -> bool {
     cfg!(target_os = "linux") && layout.size() >= HUGE && layout.align() <= HUGE
 }
 
-// SAFETY: every block is either System's (rule 1) or a registered
-// mapping of `large::alloc_registered` (rules 2 and 3); `dealloc` and
-// `realloc` look the address up in the registry, so each block is freed by
-// the allocator that made it. Huge-page blocks are aligned to HUGE, which
-// `is_large` checks is at least the layout's alignment.
 /// Rule 6, once per process (an atomic load after the first call).
 #[inline]
 fn fix_mmap_threshold() {
@@ -197,6 +192,11 @@ fn fix_mmap_threshold() {
     }
 }
 
+// SAFETY: every block is either System's (rule 1) or a registered
+// mapping of `large::alloc_registered` (rules 2 and 3); `dealloc` and
+// `realloc` look the address up in the registry, so each block is freed by
+// the allocator that made it. Huge-page blocks are aligned to HUGE, which
+// `is_large` checks is at least the layout's alignment.
 unsafe impl GlobalAlloc for HugePageAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         fix_mmap_threshold();

@@ -142,6 +142,19 @@ fn two_references_cover_each_others_holes() {
     assert!(both.covered.all());
 }
 
+/// A reference: its camera and its image.
+type View = (Camera, SampleImage);
+
+/// A red box before the background seen from x = -0.2 and x = 0.3 (24x16
+/// pixels, 2x2 samples), with the cameras as frame commands name them.
+fn two_references() -> (Vec<View>, Vec<(usize, Camera)>) {
+    let layers = [background(), Layer { z: 4.0, x0: -0.4, x1: 0.1, colour: red }];
+    let refs: Vec<View> =
+        [-0.2, 0.3].iter().map(|&x| (at_x(24, 16, x), render(&at_x(24, 16, x), 2, &layers))).collect();
+    let cams = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
+    (refs, cams)
+}
+
 /// `Warper::keep_buffers(false)` frees the working buffers after a frame's
 /// last warp and `Warper::trim_frames(true)` the frame's cache-only planes:
 /// every frame is the same as a fresh warper's (memory planes, pixels,
@@ -152,10 +165,7 @@ fn two_references_cover_each_others_holes() {
 fn freeing_the_working_buffers_changes_no_frame() {
     use postwarp::golden::frame::Warper;
     let cfg = GoldenConfig::default();
-    let layers = [background(), Layer { z: 4.0, x0: -0.4, x1: 0.1, colour: red }];
-    let refs: Vec<(Camera, SampleImage)> =
-        [-0.2, 0.3].iter().map(|&x| (at_x(24, 16, x), render(&at_x(24, 16, x), 2, &layers))).collect();
-    let cams: Vec<(usize, Camera)> = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
+    let (refs, cams) = two_references();
     let prepared: Vec<_> = refs.iter().map(|(_, img)| prepare_reference(img, 2, &cfg)).collect();
     assert!(prepared.iter().all(|p| p.samples.object_id.is_empty() && p.samples.colour.len() == 48 * 32));
     let r: Vec<_> = prepared.iter().collect();
@@ -195,10 +205,7 @@ fn a_streamed_frame_asks_each_reference_once_and_equals_the_frame() {
     use postwarp::golden::frame::{PreparedReference, Warper};
     use std::rc::Rc;
     let cfg = GoldenConfig::default();
-    let layers = [background(), Layer { z: 4.0, x0: -0.4, x1: 0.1, colour: red }];
-    let refs: Vec<(Camera, SampleImage)> =
-        [-0.2, 0.3].iter().map(|&x| (at_x(24, 16, x), render(&at_x(24, 16, x), 2, &layers))).collect();
-    let cams: Vec<(usize, Camera)> = refs.iter().enumerate().map(|(i, (c, _))| (i, *c)).collect();
+    let (refs, cams) = two_references();
     let cmd = FrameCommands::new(0, at_x(24, 16, 0.05), 2, &cams);
     let whole = run(&at_x(24, 16, 0.05), &refs, 2, &cfg);
     let mut asked = Vec::new();
