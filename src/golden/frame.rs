@@ -329,9 +329,11 @@ impl Warper {
                 // each pixel is one fragment and the trip changes nothing.
                 d.forget_splats();
             }
-        }
-        if !self.keep {
-            self.scratch = warp_aa::Scratch::default();
+            if !self.keep {
+                // Before the next warp's reference is asked for (and maybe
+                // loaded beside them).
+                self.scratch = warp_aa::Scratch::default();
+            }
         }
         let mut unseen = BitVec::repeat(false, ((d.width / ss) * (d.height / ss)) as usize);
         if cfg.hole_fill
@@ -405,8 +407,8 @@ fn add_hole_stats(st: &mut GoldenStats, hf: &HoleFillStats) {
 /// every frame of a run.
 pub struct Warper {
     scratch: warp_aa::Scratch,
-    /// Keep the working buffers after a frame's last warp (for the next
-    /// frame), or free them before its hole-fill fallback and resolve.
+    /// Keep the working buffers from warp to warp (for the next warp or
+    /// frame), or free them after each warp.
     keep: bool,
     /// Hand frames back with their memory planes only.
     trim: bool,
@@ -424,11 +426,12 @@ impl Warper {
         Warper::default()
     }
 
-    /// Keep the working buffers (a kernel per reference sample) after each
-    /// frame's last warp, so the next frame reuses their pages (the
-    /// default); or, for a run's last frame, free them as soon as the last
-    /// warp is done, before the frame is resolved and handed back. Values
-    /// never depend on it.
+    /// Keep the working buffers (a kernel per reference sample) from warp
+    /// to warp and frame to frame, so later warps reuse their pages (the
+    /// default); or, for a run's last frame, free them as soon as each
+    /// warp is done, before the next warp's reference is asked for (and,
+    /// with [`Warper::warp_frame_streamed`], maybe loaded) and before the
+    /// frame is resolved and handed back. Values never depend on it.
     pub fn keep_buffers(&mut self, keep: bool) {
         self.keep = keep;
     }

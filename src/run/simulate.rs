@@ -39,7 +39,7 @@ use crate::report::quality::Truth;
 use crate::report::simulate::{HwFrame, VsGolden};
 use crate::report::timeline::{TimelineMeta, chrome_trace};
 use crate::run::hw_config::golden_config_for;
-use crate::trace::{DecodedReference, Trace};
+use crate::trace::Trace;
 use anyhow::Context;
 use bitvec::vec::BitVec;
 use postwarp_rtl::budget::Budget;
@@ -133,20 +133,19 @@ fn measure(
     });
     // Each engine's references, made when a warp first needs them and
     // dropped after the last warp that reads them. A reference is loaded
-    // just before the golden model's first warp of it (with the frame's
-    // next, decoded beside it), packed for the hardware model and prepared
-    // for the golden model, then let go; the golden model drops its
-    // prepared form as soon as that warp is done if no later warp reads
-    // it, so a one-frame run holds one reference's prepared form and at
-    // most one other's decoded form at a time. The hardware model's
-    // reference (valid bits and depth map; its records are expanded a
-    // block at a time as a warp runs, `postwarp_rtl::ref_blocks`) is made
-    // from the packed form after the golden model has warped the frame.
+    // (its image decoded on all threads) just before the golden model's
+    // first warp of it, packed for the hardware model and prepared for the
+    // golden model, then let go; the golden model drops its prepared form
+    // as soon as that warp is done if no later warp reads it, so a
+    // one-frame run holds one reference's loaded or prepared form at a
+    // time. The hardware model's reference (valid bits and depth map; its
+    // records are expanded a block at a time as a warp runs,
+    // `postwarp_rtl::ref_blocks`) is made from the packed form after the
+    // golden model has warped the frame.
     // The process's peak memory: `docs/performance.md`.
     let mut golden_refs: HashMap<usize, Rc<PreparedReference>> = HashMap::new();
     let mut float_refs: HashMap<usize, PreparedReference> = HashMap::new();
     let mut packed: HashMap<usize, Packed> = HashMap::new();
-    let mut decoded: HashMap<usize, DecodedReference> = HashMap::new();
     let mut hw_refs: HashMap<usize, HwReference> = HashMap::new();
     let mut warper = Warper::new();
     let mut float_warper = Warper::new();
@@ -166,28 +165,9 @@ fn measure(
         let t = Instant::now();
         let golden = warper.warp_frame_streamed(&cmd, &gcfg, |j| -> anyhow::Result<Rc<PreparedReference>> {
             let r = f.references[j];
-            // The next reference this frame warps that nothing holds yet is
-            // decoded beside this one (the decoder is sequential), and
-            // waits in the file's sample formats, not converted, packed or
-            // prepared, until its warp.
-            let ahead = f.references[j + 1..]
-                .iter()
-                .copied()
-                .find(|n| *n != r && !golden_refs.contains_key(n) && !decoded.contains_key(n));
             if let Entry::Vacant(prepared) = golden_refs.entry(r) {
                 let t = Instant::now();
-                let raw = match decoded.remove(&r) {
-                    Some(d) => trace.reference_of(r, d)?.samples,
-                    None => {
-                        let (raw, next) =
-                            rayon::join(|| trace.load_reference(r), || ahead.map(|n| (n, trace.decode_reference(n))));
-                        let raw = raw?.samples;
-                        if let Some((n, next)) = next {
-                            decoded.insert(n, next?);
-                        }
-                        raw
-                    }
-                };
+                let raw = trace.load_reference(r)?.samples;
                 let (float, hw) = rayon::join(
                     || float_gcfg.as_ref().map(|g| prepare_reference(&raw, ss, g)),
                     || {

@@ -36,10 +36,7 @@ use crate::io_util::write_atomically;
 use bitvec::vec::BitVec;
 use exr::math::Vec2;
 use exr::meta::MetaData;
-use exr::prelude::{
-    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, ReadChannels, ReadLayers,
-    WritableImage, f16, read,
-};
+use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes, WritableImage, f16};
 use postwarp_rtl::SampleImage;
 use std::io::Cursor;
 use std::path::Path;
@@ -61,25 +58,16 @@ pub fn decode_reference_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -
 }
 
 /// A reference image decoded but not yet checked and converted to
-/// samples: its channels as the file stores them (a trace's half colour:
-/// 22 bytes per sample where the loaded reference takes 28), for a
-/// reference decoded ahead of its use.
-pub struct DecodedReference {
+/// samples: its channels as the file stores them.
+struct DecodedReference {
     ch: Channels,
     expected: (u32, u32),
-}
-
-/// Read and decode a reference image of `expected` `(width, height)`
-/// samples, leaving the checks and the conversion to
-/// [`DecodedReference::into_loaded`].
-pub fn decode_reference_file(path: &Path, expected: (u32, u32)) -> Result<DecodedReference, TraceError> {
-    Ok(DecodedReference { ch: Channels::decode(&read_image_file(path)?, path, expected)?, expected })
 }
 
 impl DecodedReference {
     /// Check the decoded channels (module rules) and convert them to the
     /// loaded reference.
-    pub fn into_loaded(self) -> Result<LoadedReference, TraceError> {
+    fn into_loaded(self) -> Result<LoadedReference, TraceError> {
         let DecodedReference { mut ch, expected } = self;
         // Each channel is taken out of the decoded ones as it becomes a plane
         // (moved when stored as float), so the decoded channels and the image
@@ -348,19 +336,9 @@ impl Channels {
                 ),
             ));
         }
-        let decode = || {
-            read()
-                .no_deep_data()
-                .largest_resolution_level()
-                .all_channels()
-                .first_valid_layer()
-                .all_attributes()
-                .non_parallel()
-                .from_buffered(Cursor::new(bytes))
-        };
         // A panic in the third-party decoder on a malformed file is that
         // file's error, not a crash of the tool.
-        let image = std::panic::catch_unwind(decode)
+        let list = std::panic::catch_unwind(|| super::exr_blocks::decode_channels(bytes))
             .map_err(|p| {
                 let why =
                     p.downcast_ref::<&str>().map(|s| s.to_string()).or_else(|| p.downcast_ref::<String>().cloned());
@@ -372,22 +350,7 @@ impl Channels {
                     ),
                 )
             })?
-            .map_err(unreadable)?;
-        let layer = image.layer_data;
-        let n = want.0 * want.1;
-        if (layer.size.0 as u64, layer.size.1 as u64) != want {
-            return Err(TraceError::file(path, format!("decoded layer is {}x{}", layer.size.0, layer.size.1)));
-        }
-        let mut list = Vec::with_capacity(layer.channel_data.list.len());
-        for c in layer.channel_data.list {
-            if c.sample_data.len() as u64 != n {
-                return Err(TraceError::file(
-                    path,
-                    format!("channel `{}` has {} samples; expected {n}", c.name, c.sample_data.len()),
-                ));
-            }
-            list.push((c.name.to_string(), c.sample_data));
-        }
+            .map_err(|e| TraceError::file(path, format!("not a readable OpenEXR image: {e}")))?;
         Ok(Channels { path: path.to_path_buf(), list })
     }
 
@@ -449,15 +412,23 @@ impl Channels {
     }
 
     /// The `R`, `G`, `B` channels, taken out of the list, as one finite
-    /// colour per sample.
+    /// colour per sample. The channels are read as they are stored, not
+    /// first widened to float planes: a trace's half colour would
+    /// otherwise be held three times over while it is converted (a loaded
+    /// reference's peak memory).
     fn take_rgb(&mut self) -> Result<Vec<[f32; 3]>, TraceError> {
         let mut planes = Vec::with_capacity(3);
         for name in ["R", "G", "B"] {
-            planes.push(self.take_f32s(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?);
+            let k = self.float_channel(name)?.ok_or_else(|| self.err(format!("missing colour channel `{name}`")))?;
+            planes.push(self.list.remove(k).1);
         }
-        let mut out = Vec::with_capacity(planes[0].len());
-        for (i, ((r, g), b)) in planes[0].iter().zip(&planes[1]).zip(&planes[2]).enumerate() {
-            let c = [*r, *g, *b];
+        let n = planes[0].len();
+        let mut out = Vec::with_capacity(n);
+        let mut rgb = planes.iter().map(|p| p.values_as_f32());
+        let (r, g, b) = (rgb.next(), rgb.next(), rgb.next());
+        let (Some(r), Some(g), Some(b)) = (r, g, b) else { unreachable!("three channels taken") };
+        for (i, ((r, g), b)) in r.zip(g).zip(b).enumerate() {
+            let c = [r, g, b];
             if !c.iter().all(|v| v.is_finite()) {
                 return Err(self.err(format!("pixel {i}: colour {c:?} is not finite")));
             }
@@ -466,11 +437,13 @@ impl Channels {
         Ok(out)
     }
 
-    /// A 0/1 channel, taken out of the list, as bits (`None` if absent).
+    /// A 0/1 channel, taken out of the list, as bits (`None` if absent),
+    /// read as it is stored.
     fn take_bits(&mut self, name: &str) -> Result<Option<BitVec>, TraceError> {
-        let Some(v) = self.take_f32s(name)? else { return Ok(None) };
+        let Some(k) = self.float_channel(name)? else { return Ok(None) };
+        let v = self.list.remove(k).1;
         let mut m = BitVec::with_capacity(v.len());
-        for (i, x) in v.into_iter().enumerate() {
+        for (i, x) in v.values_as_f32().enumerate() {
             match x {
                 1.0 => m.push(true),
                 0.0 => m.push(false),

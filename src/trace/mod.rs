@@ -10,6 +10,7 @@
 //! images it names (paths relative to the manifest's directory).
 
 mod error;
+mod exr_blocks;
 mod exr_io;
 pub mod layers;
 mod parse;
@@ -17,8 +18,8 @@ mod write;
 
 pub use error::TraceError;
 pub use exr_io::{
-    DecodedReference, ExrPacking, SamplePlanes, decode_reference_image, decode_truth_image, read_reference_image,
-    read_truth_image, write_reference_image, write_reference_image_packed, write_sample_planes, write_truth_image,
+    ExrPacking, SamplePlanes, decode_reference_image, decode_truth_image, read_reference_image, read_truth_image,
+    write_reference_image, write_reference_image_packed, write_sample_planes, write_truth_image,
 };
 pub use parse::parse_manifest;
 pub use write::{TraceWriter, format_manifest};
@@ -206,24 +207,11 @@ impl Trace {
     /// Load and check reference frame `i`'s image. Slopes absent from the
     /// file are computed by finite differences (see [`SlopeSource`]).
     pub fn load_reference(&self, i: usize) -> Result<LoadedReference, TraceError> {
-        self.reference_of(i, self.decode_reference(i)?)
-    }
-
-    /// Read and decode reference frame `i`'s image without converting it
-    /// ([`Trace::reference_of`] finishes [`Trace::load_reference`]'s work):
-    /// for a reference decoded ahead of its use, in the file's own,
-    /// smaller, sample formats.
-    pub fn decode_reference(&self, i: usize) -> Result<DecodedReference, TraceError> {
         let r = &self.references[i];
         let ss = self.display.supersample;
         let (w, h) = (r.camera.intrinsics.width * ss, r.camera.intrinsics.height * ss);
-        exr_io::decode_reference_file(&self.dir.join(&r.image), (w, h))
+        exr_io::read_reference_image(&self.dir.join(&r.image), (w, h))
             .map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
-    }
-
-    /// Reference frame `i` from its image decoded by [`Trace::decode_reference`].
-    pub fn reference_of(&self, i: usize, d: DecodedReference) -> Result<LoadedReference, TraceError> {
-        d.into_loaded().map_err(|e| e.referenced_from(&self.manifest, self.reference_line(i)))
     }
 
     /// Load and check reference frame `i`'s layers (none for a v1 trace).
