@@ -32,6 +32,7 @@
 use super::planes::DestPlanes;
 use bitvec::vec::BitVec;
 use postwarp_rtl::SampleImage;
+use rayon::prelude::*;
 
 /// One A-buffer fragment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,14 +97,13 @@ struct SampleView {
 
 /// Reference sample `i` as the A-buffer sees it (`None`: no surface).
 fn reference_view(img: &SampleImage, i: usize) -> Option<SampleView> {
-    img.valid[i].then(|| SampleView {
-        colour: img.colour[i],
-        inv_z: 1.0 / img.z[i],
-        slopes: img.inv_z_slopes[i],
-        real: true,
-        key: img.object_id[i],
-        weight: 0.0,
-    })
+    sample_view(img.valid[i], img.colour[i], img.z[i], img.inv_z_slopes[i], img.object_id[i])
+}
+
+/// A reference sample's planes as the A-buffer sees them (`None`: no
+/// surface).
+fn sample_view(valid: bool, colour: [f32; 3], z: f32, slopes: [f32; 2], key: u32) -> Option<SampleView> {
+    valid.then(|| SampleView { colour, inv_z: 1.0 / z, slopes, real: true, key, weight: 0.0 })
 }
 
 /// Compression parameters.
@@ -259,41 +259,84 @@ pub fn round_trip_reference(img: &SampleImage, p: &AbufferParams, stats: &mut Ab
 /// [`round_trip_reference`] on the image itself: each pixel's samples are
 /// read before they are rewritten, and samples outside whole pixels are
 /// emptied, so the values are the same without a second image (a loaded
-/// reference becomes its prepared form).
+/// reference becomes its prepared form). Bands of [`BAND_PIXEL_ROWS`]
+/// pixel rows go through in parallel; pixels are independent and the
+/// counters add, so values and counters are the same on any number of
+/// threads.
 pub fn round_trip_reference_in_place(img: &mut SampleImage, p: &AbufferParams, stats: &mut AbufferStats) {
     if p.abuffer_fragments == 0 {
         return;
     }
-    let clear = |img: &mut SampleImage, i: usize| {
-        (img.colour[i], img.z[i], img.inv_z_slopes[i], img.object_id[i]) = ([0.0; 3], 0.0, [0.0; 2], 0);
-        img.valid.set(i, false);
-    };
-    let (w, h, ss) = (img.width, img.height, p.ss);
+    let (w, h, ss) = (img.width as usize, img.height as usize, p.ss as usize);
     for y in 0..h {
         for x in 0..w {
             if x >= w / ss * ss || y >= h / ss * ss {
-                clear(img, img.index(x, y));
+                let i = y * w + x;
+                (img.colour[i], img.z[i], img.inv_z_slopes[i], img.object_id[i]) = ([0.0; 3], 0.0, [0.0; 2], 0);
+                img.valid.set(i, false);
             }
         }
     }
+    let whole = h / ss * ss * w;
+    let band = (BAND_PIXEL_ROWS * ss * w).max(1);
+    let SampleImage { colour, z, inv_z_slopes, object_id, valid, .. } = img;
+    let valid_in: &BitVec = valid;
+    let bands: Vec<(BitVec, AbufferStats)> = colour[..whole]
+        .par_chunks_mut(band)
+        .zip(z[..whole].par_chunks_mut(band))
+        .zip(inv_z_slopes[..whole].par_chunks_mut(band))
+        .zip(object_id[..whole].par_chunks_mut(band))
+        .enumerate()
+        .map(|(k, (((colour, z), slopes), object_id))| {
+            let valid = valid_in[k * band..k * band + colour.len()].to_bitvec();
+            let mut b = Band { colour, z, slopes, object_id, valid };
+            let mut st = AbufferStats::default();
+            round_trip_band(&mut b, w, p, &mut st);
+            (b.valid, st)
+        })
+        .collect();
+    for (k, (v, st)) in bands.into_iter().enumerate() {
+        valid[k * band..k * band + v.len()].copy_from_bitslice(&v);
+        stats.add(&st);
+    }
+}
+
+/// Pixel rows per band of [`round_trip_reference_in_place`].
+const BAND_PIXEL_ROWS: usize = 16;
+
+/// Whole pixel rows of a reference, as slices of its planes (`valid`
+/// copied out, and back when the band is done).
+struct Band<'a> {
+    colour: &'a mut [[f32; 3]],
+    z: &'a mut [f32],
+    slopes: &'a mut [[f32; 2]],
+    object_id: &'a mut [u32],
+    valid: BitVec,
+}
+
+/// The round trip of one band of `w`-sample rows.
+fn round_trip_band(b: &mut Band, w: usize, p: &AbufferParams, stats: &mut AbufferStats) {
+    let ss = p.ss;
+    let rows = (b.colour.len() / w) as u32;
     let mut views = Vec::with_capacity((ss * ss) as usize);
     let mut sc = PixelScratch::default();
-    for_each_pixel(w, h, ss, |_, _, idx| {
+    for_each_pixel(w as u32, rows, ss, |_, _, idx| {
         views.clear();
-        views.extend(idx.iter().map(|&i| reference_view(img, i)));
+        views.extend(idx.iter().map(|&i| sample_view(b.valid[i], b.colour[i], b.z[i], b.slopes[i], b.object_id[i])));
         compress_pixel(&views, p, stats, &mut sc);
         for &i in idx {
-            clear(img, i);
+            (b.colour[i], b.z[i], b.slopes[i], b.object_id[i]) = ([0.0; 3], 0.0, [0.0; 2], 0);
+            b.valid.set(i, false);
         }
         for f in &sc.out {
             for (k, &i) in idx.iter().enumerate() {
                 if f.mask & (1 << k) != 0 {
                     let (ox, oy) = (offset(ss, k as u32 % ss), offset(ss, k as u32 / ss));
-                    img.colour[i] = f.colour;
-                    img.z[i] = 1.0 / plane_at(f, ox, oy);
-                    img.inv_z_slopes[i] = f.slopes;
-                    img.object_id[i] = f.key;
-                    img.valid.set(i, true);
+                    b.colour[i] = f.colour;
+                    b.z[i] = 1.0 / plane_at(f, ox, oy);
+                    b.slopes[i] = f.slopes;
+                    b.object_id[i] = f.key;
+                    b.valid.set(i, true);
                 }
             }
         }
@@ -303,12 +346,9 @@ pub fn round_trip_reference_in_place(img: &mut SampleImage, p: &AbufferParams, s
     // so close to 0 that the reciprocal overflows. Memory holds the plane,
     // not the sample's own depth, so the sample goes past the horizon, at
     // the far limit, as the hardware's unpack does.
-    // (Disjoint fields: no list of the valid samples, which would be 8
-    // bytes per reference sample at the run's peak memory.)
-    let SampleImage { z, valid, .. } = img;
-    for i in valid.iter_ones() {
-        if !(z[i].is_finite() && z[i] > 0.0) {
-            z[i] = FAR_Z;
+    for i in b.valid.iter_ones() {
+        if !(b.z[i].is_finite() && b.z[i] > 0.0) {
+            b.z[i] = FAR_Z;
         }
     }
 }
@@ -530,10 +570,12 @@ mod tests {
 
     /// The round trip in place gives the planes a second image gets,
     /// samples outside whole pixels emptied (an odd-sized 2x2-sampled
-    /// frame whose samples all hold a surface).
+    /// frame whose samples all hold a surface), in bands on one thread or
+    /// several (37 whole pixel rows: three bands, the last one short).
     #[test]
     fn the_round_trip_in_place_is_the_round_trip() {
-        let (w, h) = (7, 5);
+        let (w, h) = (7, 75);
+        assert!(h as usize / 2 > 2 * BAND_PIXEL_ROWS);
         let mut img = SampleImage::empty(w, h);
         for i in 0..img.len() {
             let (x, y) = ((i % w as usize) as f32, (i / w as usize) as f32);
@@ -544,7 +586,7 @@ mod tests {
             img.valid.set(i, i % 11 != 3);
         }
         for n in [0, 1, 3] {
-            let (mut st, mut st2) = (AbufferStats::default(), AbufferStats::default());
+            let mut st2 = AbufferStats::default();
             let mut want = SampleImage::empty(w, h);
             // The round trip into a second image, written out here.
             for_each_pixel(w, h, 2, |_, _, idx| {
@@ -561,16 +603,21 @@ mod tests {
                     }
                 }
             });
-            let mut got = img.clone();
-            round_trip_reference_in_place(&mut got, &params(n), &mut st);
-            if n == 0 {
-                assert_eq!(got, img, "no A-buffer: unchanged");
-                continue;
+            for threads in [1, 3] {
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+                let mut got = img.clone();
+                let mut st = AbufferStats::default();
+                pool.install(|| round_trip_reference_in_place(&mut got, &params(n), &mut st));
+                if n == 0 {
+                    assert_eq!(got, img, "no A-buffer: unchanged");
+                    continue;
+                }
+                assert_eq!(got, want, "{n} fragments, {threads} threads");
+                assert_eq!(st.fragments_per_pixel, st2.fragments_per_pixel);
+                assert_eq!(st.forced_merges, st2.forced_merges);
+                assert!(!got.valid[6] && !got.valid[(74 * w) as usize], "outside whole pixels: empty");
+                assert!(got.valid.count_ones() > 0);
             }
-            assert_eq!(got, want, "{n} fragments");
-            assert_eq!(st.fragments_per_pixel, st2.fragments_per_pixel);
-            assert!(!got.valid[6] && !got.valid[(4 * w) as usize], "outside whole pixels: empty");
-            assert!(got.valid.count_ones() > 0);
         }
     }
 
