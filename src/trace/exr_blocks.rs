@@ -17,7 +17,9 @@
 //!    placed in file order, so even a malformed file whose blocks overlap
 //!    decodes to the same samples on any number of threads.
 //! 3. A block line outside the image, or whose bytes do not fit its
-//!    channel's sample type, is an error, never a panic.
+//!    channel's sample type, is an error. A panic inside exr's own code
+//!    (decompression, or a block shorter than its lines) reaches the
+//!    caller's `catch_unwind`, on any thread.
 //! 4. Samples that no block covers stay zero, as exr's decoder leaves them.
 //!
 //! Not handled: deep data, multi-part files, subsampled channels (refused
