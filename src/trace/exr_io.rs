@@ -54,66 +54,56 @@ pub fn read_reference_image(path: &Path, expected: (u32, u32)) -> Result<LoadedR
 /// Decode the bytes of a reference image file of `expected` `(width,
 /// height)` samples; `file` only names the source in errors.
 pub fn decode_reference_image(bytes: &[u8], file: &Path, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
-    DecodedReference { ch: Channels::decode(bytes, file, expected)?, expected }.into_loaded()
+    reference_of_channels(Channels::decode(bytes, file, expected)?, expected)
 }
 
-/// A reference image decoded but not yet checked and converted to
-/// samples: its channels as the file stores them.
-struct DecodedReference {
-    ch: Channels,
-    expected: (u32, u32),
-}
-
-impl DecodedReference {
-    /// Check the decoded channels (module rules) and convert them to the
-    /// loaded reference.
-    fn into_loaded(self) -> Result<LoadedReference, TraceError> {
-        let DecodedReference { mut ch, expected } = self;
-        // Each channel is taken out of the decoded ones as it becomes a plane
-        // (moved when stored as float), so the decoded channels and the image
-        // are never both held whole (a loaded reference's peak memory).
-        let (w, h) = expected;
-        let n = w as usize * h as usize;
-        let colour = ch.take_rgb()?;
-        let z = ch.take_f32s("Z")?.ok_or_else(|| ch.err("missing channel `Z` (depth)"))?;
-        let valid = ch.take_bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n));
-        let object_id = ch.take_u32s("id")?.unwrap_or_else(|| vec![0; n]);
-        let dx = ch.take_f32s("dinvz_dx")?;
-        let dy = ch.take_f32s("dinvz_dy")?;
-        let (inv_z_slopes, slopes) = match (dx, dy) {
-            (Some(dx), Some(dy)) => (dx.into_iter().zip(dy).map(|(a, b)| [a, b]).collect(), SlopeSource::Exact),
-            (None, None) => (vec![[0.0; 2]; n], SlopeSource::FiniteDifference),
-            _ => return Err(ch.err("has only one of the channels `dinvz_dx`, `dinvz_dy`; expected both or neither")),
-        };
-        ch.list = Vec::new();
-        let mut img = SampleImage { width: w, height: h, colour, z, inv_z_slopes, object_id, valid };
-        for i in 0..n {
-            let (x, y) = (i % w as usize, i / w as usize);
-            if !img.valid[i] {
-                // No surface: depth and slopes mean nothing; never pass on NaN.
-                img.z[i] = 0.0;
-                img.inv_z_slopes[i] = [0.0; 2];
-                continue;
-            }
-            let z = img.z[i];
-            // 1/Z must be a finite f32 too (Z >= 2.9e-39), or slopes from
-            // finite differences, and the engines' 1/Z, would be infinite.
-            if !(z.is_finite() && z > 0.0 && (1.0 / z).is_finite()) {
-                return Err(ch.err(format!(
-                    "sample ({x}, {y}): depth Z = {z:e} where a surface is claimed; expected a finite positive depth \
-                     whose reciprocal is finite (Z >= {:e}; mark samples without a surface with valid = 0)",
-                    1.0 / f32::MAX
-                )));
-            }
-            if slopes == SlopeSource::Exact && !img.inv_z_slopes[i].iter().all(|s| s.is_finite()) {
-                return Err(ch.err(format!("sample ({x}, {y}): 1/Z slope {:?} is not finite", img.inv_z_slopes[i])));
-            }
+/// Check a reference image's decoded channels (module rules) and convert
+/// them to the loaded reference. Each channel is taken out of the decoded
+/// ones as it becomes a plane (moved when stored as float), so the decoded
+/// channels and the image are never both held whole (a loaded reference's
+/// peak memory).
+fn reference_of_channels(mut ch: Channels, expected: (u32, u32)) -> Result<LoadedReference, TraceError> {
+    let (w, h) = expected;
+    let n = w as usize * h as usize;
+    let colour = ch.take_rgb()?;
+    let z = ch.take_f32s("Z")?.ok_or_else(|| ch.err("missing channel `Z` (depth)"))?;
+    let valid = ch.take_bits("valid")?.unwrap_or_else(|| BitVec::repeat(true, n));
+    let object_id = ch.take_u32s("id")?.unwrap_or_else(|| vec![0; n]);
+    let dx = ch.take_f32s("dinvz_dx")?;
+    let dy = ch.take_f32s("dinvz_dy")?;
+    let (inv_z_slopes, slopes) = match (dx, dy) {
+        (Some(dx), Some(dy)) => (dx.into_iter().zip(dy).map(|(a, b)| [a, b]).collect(), SlopeSource::Exact),
+        (None, None) => (vec![[0.0; 2]; n], SlopeSource::FiniteDifference),
+        _ => return Err(ch.err("has only one of the channels `dinvz_dx`, `dinvz_dy`; expected both or neither")),
+    };
+    ch.list = Vec::new();
+    let mut img = SampleImage { width: w, height: h, colour, z, inv_z_slopes, object_id, valid };
+    for i in 0..n {
+        let (x, y) = (i % w as usize, i / w as usize);
+        if !img.valid[i] {
+            // No surface: depth and slopes mean nothing; never pass on NaN.
+            img.z[i] = 0.0;
+            img.inv_z_slopes[i] = [0.0; 2];
+            continue;
         }
-        if slopes == SlopeSource::FiniteDifference {
-            img.slopes_from_depth();
+        let z = img.z[i];
+        // 1/Z must be a finite f32 too (Z >= 2.9e-39), or slopes from
+        // finite differences, and the engines' 1/Z, would be infinite.
+        if !(z.is_finite() && z > 0.0 && (1.0 / z).is_finite()) {
+            return Err(ch.err(format!(
+                "sample ({x}, {y}): depth Z = {z:e} where a surface is claimed; expected a finite positive depth \
+                 whose reciprocal is finite (Z >= {:e}; mark samples without a surface with valid = 0)",
+                1.0 / f32::MAX
+            )));
         }
-        Ok(LoadedReference { samples: img, slopes })
+        if slopes == SlopeSource::Exact && !img.inv_z_slopes[i].iter().all(|s| s.is_finite()) {
+            return Err(ch.err(format!("sample ({x}, {y}): 1/Z slope {:?} is not finite", img.inv_z_slopes[i])));
+        }
     }
+    if slopes == SlopeSource::FiniteDifference {
+        img.slopes_from_depth();
+    }
+    Ok(LoadedReference { samples: img, slopes })
 }
 
 /// Read a ground-truth image of `expected` `(width, height)` pixels.
