@@ -106,7 +106,7 @@ proptest! {
                 let box_lo = if axis == 0 { b.0 } else { b.2 } + shift;
                 let box_hi = if axis == 0 { b.1 } else { b.3 } + shift;
                 let nearest = centre.round().clamp(box_lo.ceil(), (box_hi - 1.0).ceil().max(box_lo.ceil())) as i64;
-                prop_assert!(lo <= nearest && nearest <= hi, "axis {axis}: window {lo}..={hi} misses centre {nearest}");
+                prop_assert!(lo as i64 <= nearest && nearest <= hi as i64, "axis {axis}: window {lo}..={hi} misses centre {nearest}");
             }
         }
     }

@@ -88,7 +88,7 @@ use crate::units::kernel_setup::{Kernel, KernelSetupPorts, KernelSetupStage};
 use crate::units::line_buffer::LineBuffer;
 use crate::units::line_kernels::{LineKernels, LineSource, LinesAhead};
 use crate::units::packer::{PackerPorts, PackerStage};
-use crate::units::raster::{RasterPorts, RasterStage, Stamped};
+use crate::units::raster::{RasterPorts, RasterStage, StampShape, Stamped};
 use crate::units::resolve::resolve;
 use crate::units::tile_manager::TileManager;
 use crate::units::tile_prefetch::{Fronts, TilePrefetch};
@@ -537,7 +537,9 @@ impl Machine<'_> {
         let start = self.now;
         std::thread::scope(|scope| {
             let (sched, threshold) = (&plan.sched, self.cfg.threshold);
-            let line_kernels = LineKernels::new(w.r, w.tu, buffer, threshold);
+            let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);
+            let shape = StampShape { limit: self.cfg.kernel_limit, size };
+            let line_kernels = LineKernels::new(w.r, w.tu, buffer, threshold, shape);
             let source = if self.look_ahead {
                 LineSource::Ahead(LinesAhead::spawn(scope, &sched.lines, &sched.need, line_kernels))
             } else {
@@ -641,14 +643,13 @@ impl<'s> Pipeline<'s> {
         cache.warp = w.number as u32;
         cache.place(w.region);
         let (thr, rate) = (cfg.transform_throughput, cfg.rects_per_cycle);
-        let size = (w.dst.intrinsics.width, w.dst.intrinsics.height);
         let a = || Activity::starting(now, record);
         Pipeline {
             fetch: FetchStage::new(&sched.fetch, r, cache, thr, a()),
             transform: TransformStage::new(thr, cfg.transform_latency, r.grid.len(), a()),
             kernel: KernelSetupStage::with_source(&sched.lines, &sched.need, r, line_source, thr, a()),
             kernels: Fifo::new(2 * rate as usize, 1),
-            raster: RasterStage::new(tu, w.number as u8, cfg.kernel_limit, size, rate, a()),
+            raster: RasterStage::new(tu, w.number as u8, rate, a()),
             stamps: Fifo::new(2 * rate as usize, 1),
             composite: CompositeStage::new(tu, cfg.slope_tol, cfg.rel_tol, rate, cfg.composite_miss_queue, a()),
             tiles: TileManager::new(sched.lines.len(), &sched.retire),

@@ -34,7 +34,7 @@ fn warp() -> Warp {
 }
 
 /// A stamp of `line` covering columns `x` and rows `y` (inclusive).
-fn stamp(line: u32, x: (i64, i64), y: (i64, i64), r: f32) -> Stamped {
+fn stamp(line: u32, x: (i32, i32), y: (i32, i32), r: f32) -> Stamped {
     let size = ((x.1 - x.0 + 1) as u32, (y.1 - y.0 + 1) as u32);
     Stamped {
         line,

@@ -71,8 +71,17 @@ fn a_line_starts_in_the_cycle_its_need_interval_leaves_the_transform_and_not_bef
     let mut out: Fifo<Kernel> = Fifo::new(64, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k =
-        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 64, activity(Cycle(0)));
+    let mut k = KernelSetupStage::new(
+        &s.lines,
+        &s.need,
+        &w.r,
+        &w.tu,
+        &mut buffer,
+        w.cfg.threshold,
+        w.shape(),
+        64,
+        activity(Cycle(0)),
+    );
     // The fetch unit pushes the last sample of interval n0 at cycle P: it
     // is visible at N = P + latency. Its cursor reads n0 until the end of
     // cycle P (kernel setup is ticked before the fetch unit).
@@ -119,8 +128,17 @@ fn a_full_kernel_fifo_stalls_it_on_fifo_full_until_the_rasterizer_pops() {
     let mut out: Fifo<Kernel> = Fifo::new(1, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k =
-        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 4, activity(Cycle(0)));
+    let mut k = KernelSetupStage::new(
+        &s.lines,
+        &s.need,
+        &w.r,
+        &w.tu,
+        &mut buffer,
+        w.cfg.threshold,
+        w.shape(),
+        4,
+        activity(Cycle(0)),
+    );
     let fi = s.fetch.len();
     let mut log = TickLog::new(Cycle(0));
     let mut io = Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
@@ -151,8 +169,17 @@ fn lanes_bound_each_cycle_samples_without_a_surface_cost_nothing_and_each_kernel
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
     let lanes = 3;
-    let mut k =
-        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, lanes, activity(Cycle(0)));
+    let mut k = KernelSetupStage::new(
+        &s.lines,
+        &s.need,
+        &w.r,
+        &w.tu,
+        &mut buffer,
+        w.cfg.threshold,
+        w.shape(),
+        lanes,
+        activity(Cycle(0)),
+    );
     let fi = s.fetch.len();
     let mut kernels = Vec::new();
     let mut c = 1;
@@ -209,8 +236,17 @@ fn a_culled_sample_takes_an_emission_slot_but_yields_no_kernel() {
     let mut out: Fifo<Kernel> = Fifo::new(1 << 20, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k =
-        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 2, activity(Cycle(0)));
+    let mut k = KernelSetupStage::new(
+        &s.lines,
+        &s.need,
+        &w.r,
+        &w.tu,
+        &mut buffer,
+        w.cfg.threshold,
+        w.shape(),
+        2,
+        activity(Cycle(0)),
+    );
     let fi = s.fetch.len();
     let mut busy = 0;
     for c in 1..1000 {
@@ -260,12 +296,21 @@ fn lines_computed_on_the_look_ahead_thread_leave_in_the_same_cycles_with_the_sam
     let w = Warp::new(&img, DVec3::new(0.3, -0.2, 0.4), 0.2, config());
     let s = &w.sched;
     let mut buffer = LineBuffer::default();
-    let mut k =
-        KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, &mut buffer, w.cfg.threshold, 3, activity(Cycle(0)));
+    let mut k = KernelSetupStage::new(
+        &s.lines,
+        &s.need,
+        &w.r,
+        &w.tu,
+        &mut buffer,
+        w.cfg.threshold,
+        w.shape(),
+        3,
+        activity(Cycle(0)),
+    );
     let inline = run_to_end(&mut k, &w);
     let mut buffer = LineBuffer::default();
     let ahead = std::thread::scope(|scope| {
-        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold, w.shape());
         let source = LineSource::Ahead(LinesAhead::spawn(scope, &s.lines, &s.need, kernels));
         let mut k = KernelSetupStage::with_source(&s.lines, &s.need, &w.r, source, 3, activity(Cycle(0)));
         run_to_end(&mut k, &w)
@@ -285,7 +330,7 @@ fn read_before_streamed(ahead: bool) {
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
     std::thread::scope(|scope| {
-        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold, w.shape());
         let source = if ahead {
             LineSource::Ahead(LinesAhead::spawn(scope, &s.lines, &s.need, kernels))
         } else {
@@ -332,7 +377,7 @@ fn a_panic_on_the_look_ahead_thread_reaches_kernel_setup_with_its_message() {
     let mut tiles = TileManager::new(1, &s.retire);
     let mut buffer = LineBuffer::default();
     std::thread::scope(|scope| {
-        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold);
+        let kernels = LineKernels::new(&w.r, &w.tu, &mut buffer, w.cfg.threshold, w.shape());
         let source = LineSource::Ahead(LinesAhead::spawn(scope, &lines, &need, kernels));
         let mut k = KernelSetupStage::with_source(&lines, &need, &w.r, source, 4, activity(Cycle(0)));
         let io = &mut Io { transform: &mut t, out: &mut out, tiles: &mut tiles };

@@ -170,8 +170,8 @@ pub fn prefetch_stamps(input: &Fifo<Stamped>, from: usize, frame: &DestFrame) {
     for k in from..input.len() {
         let Some(job) = input.held(k) else { break };
         let x = job.rect.x.0.max(0) as u32;
-        let n = (job.rect.x.1 + 1 - x as i64).max(0) as usize;
-        for row in job.rect.y.0.max(0)..=job.rect.y.1 {
+        let n = (job.rect.x.1 as i64 + 1 - x as i64).max(0) as usize;
+        for row in job.rect.y.0.max(0)..job.rect.y.1 + 1 {
             // The row's first sample with its flag words, then the rest
             // of the row's samples (a row of 44-byte samples spans up to
             // three host cache lines).

@@ -47,6 +47,7 @@
 
 use super::line_buffer::LineBuffer;
 use super::line_kernels::{Emit, LineKernels, LineSource, LineWork};
+use super::raster::{Rect, StampShape};
 use super::tile_manager::TileManager;
 use super::transform::{TransformStage, TransformUnit, Transformed};
 use super::{Activity, Run, StallReason, Tick, UnitCycles};
@@ -224,12 +225,12 @@ pub struct Kernel {
     pub line: u32,
     /// The reference sample.
     pub sample: (u32, u32),
-    /// Its warped position (derived samples).
-    pub pos: DVec2,
-    /// Its derived 1/Z.
-    pub inv_z: f64,
-    /// Rule 4's box `(x0, x1, y0, y1)`.
-    pub corners_box: (f64, f64, f64, f64),
+    /// Its derived 1/Z, as the candidate carries it (single precision).
+    pub inv_z: f32,
+    /// The stamp of rule 4's box around the warped sample (raster rules
+    /// 1–3, [`crate::units::raster::stamp_of`]): computed with the kernel,
+    /// taken by the rasterizer's control with it (raster rule 5).
+    pub stamp: Rect,
     /// The sample's colour.
     pub colour: [f32; 3],
     /// Rule 5's hole-fill colour.
@@ -241,8 +242,9 @@ pub struct Kernel {
     pub src_slopes: [f32; 2],
     /// Fixed mode: saturations of its transform (own warp and edge
     /// corners) and of its kernel setup (shared corners), counted by the
-    /// rasterizer if its stamp is not empty (counts).
-    pub sat: [u32; 2],
+    /// rasterizer if its stamp is not empty (counts: a kernel rounds a few
+    /// tens of values, so each fits a byte).
+    pub sat: [u8; 2],
 }
 
 /// Kernel setup's ports for one cycle.
@@ -292,10 +294,11 @@ impl<'s> KernelSetupStage<'s> {
         tu: &'s TransformUnit,
         buffer: &'s mut LineBuffer,
         threshold: f64,
+        shape: StampShape,
         lanes: u32,
         activity: Activity,
     ) -> Self {
-        let source = LineSource::Inline(LineKernels::new(reference, tu, buffer, threshold));
+        let source = LineSource::Inline(LineKernels::new(reference, tu, buffer, threshold, shape));
         Self::with_source(lines, need, reference, source, lanes, activity)
     }
 

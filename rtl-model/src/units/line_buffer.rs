@@ -210,7 +210,7 @@ impl LineBuffer {
             row.data[len as usize - 1] = None;
         }
         for (b0, b1) in row.missing(wno, major, line, a0, a1) {
-            for a in b0..=b1 {
+            for a in b0..b1 + 1 {
                 let w = |l: usize, p: i64| self.warps[l].data[p as usize];
                 let (p, q, r, t) = (w(lower, a), w(lower, a + 1), w(upper, a), w(upper, a + 1));
                 // Rule 3: a = (gx, gy), b = (gx + 1, gy), c = (gx, gy + 1), d.

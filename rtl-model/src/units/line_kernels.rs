@@ -4,7 +4,8 @@
 //!
 //! Job: turn a schedule line into its emissions (a kernel, or a culled
 //! slot, per valid sample), reading the reference records and the line
-//! buffer. No timing: the values are pure functions of the reference and
+//! buffer; each kernel carries its stamp (`units::raster::stamp_of`,
+//! raster rule 5). No timing: the values are pure functions of the reference and
 //! the warp, so the host may compute a line whenever it likes before kernel
 //! setup emits it. Kernel setup's control (`KernelSetupStage`) decides when
 //! each kernel leaves; this file decides nothing about time.
@@ -39,6 +40,7 @@
 
 use super::kernel_setup::{Kernel, backward_step, bounding_box, corners_counted, same_surface};
 use super::line_buffer::{LineBuffer, Sources, WarpedRun, at};
+use super::raster::{StampShape, stamp_of};
 use super::transform::TransformUnit;
 use crate::hw_reference::{HwReference, RefSample};
 use crate::ref_blocks::RefBlocks;
@@ -85,6 +87,8 @@ pub struct LineKernels<'s> {
     tu: &'s TransformUnit,
     buffer: &'s mut LineBuffer,
     threshold: f64,
+    /// The warp's stamp shape (raster rule 5).
+    shape: StampShape,
     /// Host scratch: the current line's reference records, gathered before
     /// its kernels are computed (a column sheet's records are a row apart;
     /// independent loads overlap their misses). No model state.
@@ -95,17 +99,24 @@ pub struct LineKernels<'s> {
 
 impl<'s> LineKernels<'s> {
     /// The computation for a warp of `reference` by `tu`, with `buffer`
-    /// (readied for the warp here) and discontinuity `threshold`.
-    pub fn new(reference: &'s HwReference, tu: &'s TransformUnit, buffer: &'s mut LineBuffer, threshold: f64) -> Self {
+    /// (readied for the warp here), discontinuity `threshold` and stamps of
+    /// `shape`.
+    pub fn new(
+        reference: &'s HwReference,
+        tu: &'s TransformUnit,
+        buffer: &'s mut LineBuffer,
+        threshold: f64,
+        shape: StampShape,
+    ) -> Self {
         buffer.begin_warp(reference.width, reference.height);
         let blocks = RefBlocks::new(reference);
-        LineKernels { reference, tu, buffer, threshold, recs_run: Vec::new(), blocks }
+        LineKernels { reference, tu, buffer, threshold, shape, recs_run: Vec::new(), blocks }
     }
 
     /// Line `l` (number `index` in the schedule) into `out` (cleared
     /// first).
     pub fn compute(&mut self, index: usize, l: Line, out: &mut LineWork) {
-        let (r, tu, threshold) = (self.reference, self.tu, self.threshold);
+        let (r, tu, threshold, shape) = (self.reference, self.tu, self.threshold, self.shape);
         let src = Sources { tu, r, threshold };
         let (major, c) = (l.major, l.line as i64);
         let (lo, hi) = (l.lo as i64, l.hi as i64);
@@ -174,14 +185,13 @@ impl<'s> LineKernels<'s> {
             emits.push(Emit::Kernel(Kernel {
                 line: index as u32,
                 sample: (x, y),
-                pos: t.pos,
-                inv_z: t.inv_z,
-                corners_box: bounding_box(&corners),
+                inv_z: t.inv_z as f32,
+                stamp: stamp_of(shape, bounding_box(&corners), (t.pos.x, t.pos.y)),
                 colour: rec.colour,
                 fill_colour,
                 src_inv_z,
                 src_slopes: rec.slopes,
-                sat: [t.sat + ts, ks],
+                sat: [t.sat + ts, ks].map(|n| u8::try_from(n).expect("a kernel rounds a few tens of values")),
             }));
         }
     }

@@ -31,6 +31,14 @@
 //!    derived slopes (from the transform unit, on request) and the
 //!    reference number.
 //!
+//! 5. Host: the stamp (rules 1–3, [`stamp_of`]) is a pure function of
+//!    the kernel's box and the warp, so the host computes it with the
+//!    kernel, in kernel setup's line computation (`units::line_kernels`,
+//!    on the look-ahead thread when there is one): the kernel carries its
+//!    stamp (28 bytes) instead of its box and warped centre (48 bytes), and
+//!    the control takes it with the kernel. Where and when the host
+//!    computes it changes no cycle and no value.
+//!
 //! Fixed mode (`docs/fixed-point.md`): the derived slopes round to
 //! `q_slope`; a non-empty stamp counts its kernel's saturations
 //! (`saturations.transform`, `saturations.kernel_setup`) and its slopes'
@@ -48,13 +56,16 @@ use crate::clock::Cycle;
 use crate::fifo::Fifo;
 use crate::frame_stats::RECT_HIST_MAX;
 
-/// A rasterized rectangle.
+/// A rasterized rectangle. Its corners are clipped to the image, so they
+/// fit 32 bits (an empty rectangle's, clamped to 32 bits, stay empty):
+/// kernels carry their stamps across host threads, and its size is host
+/// time.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Rect {
     /// Covered columns, inclusive (empty if `x.0 > x.1`).
-    pub x: (i64, i64),
+    pub x: (i32, i32),
     /// Covered rows, inclusive.
-    pub y: (i64, i64),
+    pub y: (i32, i32),
     /// Size of the box before clipping (sample centres per axis).
     pub size: (u32, u32),
     /// The box exceeded the stamp (rule 2).
@@ -92,12 +103,14 @@ pub fn rect(x0: f64, x1: f64, y0: f64, y1: f64, centre: (f64, f64), limit: u32, 
     let kernel = (n(rx), n(ry));
     let over_limit = kernel.0 > limit || kernel.1 > limit;
     let (rx, ry) = (window(rx, centre.0, limit), window(ry, centre.1, limit));
-    Rect {
-        x: (rx.0.max(0), rx.1.min(size.0 as i64 - 1)),
-        y: (ry.0.max(0), ry.1.min(size.1 as i64 - 1)),
-        size: kernel,
-        over_limit,
-    }
+    // Clipped to the image, then clamped into 32 bits (only an empty
+    // range's ends can lie outside them; clamping keeps it empty).
+    let clip = |r: (i64, i64), n: u32| {
+        let (lo, hi) = (r.0.max(0), r.1.min(n as i64 - 1));
+        let c = |v: i64| v.clamp(i32::MIN as i64, i32::MAX as i64) as i32;
+        (c(lo), c(hi))
+    };
+    Rect { x: clip(rx, size.0), y: clip(ry, size.1), size: kernel, over_limit }
 }
 
 impl Rect {
@@ -116,12 +129,32 @@ impl Rect {
     /// Visit the covered centres in raster order.
     #[inline]
     pub fn for_each(&self, mut f: impl FnMut(u32, u32)) {
-        for y in self.y.0..=self.y.1 {
-            for x in self.x.0..=self.x.1 {
+        // Half-open ranges: an inclusive range's iterator carries an
+        // exhausted flag that the host checks on every step.
+        for y in self.y.0..self.y.1 + 1 {
+            for x in self.x.0..self.x.1 + 1 {
                 f(x as u32, y as u32);
             }
         }
     }
+}
+
+/// The stamp shape of a warp: the stamp side (`kernel_limit`) and the
+/// derived image size the rectangles are clipped to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StampShape {
+    /// Stamp side, samples (`kernel_limit`).
+    pub limit: u32,
+    /// Derived image size, samples.
+    pub size: (u32, u32),
+}
+
+/// The stamp of a kernel box `corners_box` `(x0, x1, y0, y1)` around the
+/// warped sample at `pos` (rules 1–3; the datapath of rule 5).
+#[inline]
+pub fn stamp_of(shape: StampShape, corners_box: (f64, f64, f64, f64), pos: (f64, f64)) -> Rect {
+    let (x0, x1, y0, y1) = corners_box;
+    rect(x0, x1, y0, y1, pos, shape.limit, shape.size)
 }
 
 /// One clock's stamp travelling from the rasterizer to the compositor: the
@@ -164,8 +197,6 @@ pub struct RasterPorts<'a> {
 pub struct RasterStage<'s> {
     tu: &'s TransformUnit,
     source: u8,
-    limit: u32,
-    size: (u32, u32),
     lanes: usize,
     over_limit: u64,
     rects: [[u64; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
@@ -176,22 +207,12 @@ pub struct RasterStage<'s> {
 }
 
 impl<'s> RasterStage<'s> {
-    /// A rasterizer of `limit`-sample stamps into a `size` derived image,
-    /// `lanes` rectangles per cycle, for the warp of reference number
-    /// `source` by `tu`, accounted by `activity`.
-    pub fn new(
-        tu: &'s TransformUnit,
-        source: u8,
-        limit: u32,
-        size: (u32, u32),
-        lanes: u32,
-        activity: Activity,
-    ) -> Self {
+    /// A rasterizer of `lanes` rectangles per cycle, for the warp of
+    /// reference number `source` by `tu`, accounted by `activity`.
+    pub fn new(tu: &'s TransformUnit, source: u8, lanes: u32, activity: Activity) -> Self {
         RasterStage {
             tu,
             source,
-            limit,
-            size,
             lanes: lanes as usize,
             over_limit: 0,
             rects: [[0; RECT_HIST_MAX + 1]; RECT_HIST_MAX + 1],
@@ -212,8 +233,7 @@ impl<'s> RasterStage<'s> {
             }
             let k = io.input.pop(now).expect("visible");
             did += 1;
-            let (x0, x1, y0, y1) = k.corners_box;
-            let s = rect(x0, x1, y0, y1, (k.pos.x, k.pos.y), self.limit, self.size);
+            let s = k.stamp;
             self.over_limit += s.over_limit as u64;
             if s.is_empty() {
                 io.tiles.kernel_done(k.line);
@@ -228,13 +248,13 @@ impl<'s> RasterStage<'s> {
                 // kernel's saturations count now that it is drawn.
                 let mut n = 0;
                 slopes = slopes.map(|v| f.slope.q(v, &mut n));
-                self.sat[0] += k.sat[0] as u64;
-                self.sat[1] += k.sat[1] as u64;
+                self.sat[0] += u64::from(k.sat[0]);
+                self.sat[1] += u64::from(k.sat[1]);
                 self.sat[2] += n as u64;
             }
             let cand = Candidate {
                 colour: k.colour,
-                inv_z: k.inv_z as f32,
+                inv_z: k.inv_z,
                 slopes: [slopes[0] as f32, slopes[1] as f32],
                 source: self.source,
                 fill_colour: k.fill_colour,

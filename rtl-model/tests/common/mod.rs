@@ -21,6 +21,7 @@ use postwarp_rtl::mem::MemPort;
 use postwarp_rtl::schedule::{FetchInterval, Schedule};
 use postwarp_rtl::traversal::warp_lines;
 use postwarp_rtl::units::fetch::{FetchPorts, FetchStage, SourceCache};
+use postwarp_rtl::units::raster::StampShape;
 use postwarp_rtl::units::transform::{InFlightSample, TransformStage, TransformUnit};
 use postwarp_rtl::units::{Activity, Run, StallReason, Tick, UnitCycles, UnitState};
 use postwarp_rtl::{Camera, Intrinsics, Pose, SampleImage, WarpSetup};
@@ -94,6 +95,12 @@ pub struct Warp {
 }
 
 impl Warp {
+    /// The warp's stamp shape: the configuration's stamp side, the derived
+    /// image's size.
+    pub fn shape(&self) -> StampShape {
+        StampShape { limit: self.cfg.kernel_limit, size: (self.dst.intrinsics.width, self.dst.intrinsics.height) }
+    }
+
     /// Warp `img` seen from the origin to a camera of the same size at
     /// `dst_pos` turned by `yaw`.
     pub fn new(img: &SampleImage, dst_pos: DVec3, yaw: f64, cfg: EngineConfig) -> Warp {
