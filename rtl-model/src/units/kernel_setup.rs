@@ -242,8 +242,9 @@ pub struct Kernel {
     pub src_slopes: [f32; 2],
     /// Fixed mode: saturations of its transform (own warp and edge
     /// corners) and of its kernel setup (shared corners), counted by the
-    /// rasterizer if its stamp is not empty (counts: a kernel rounds a few
-    /// tens of values, so each fits a byte).
+    /// rasterizer if its stamp is not empty (counts, at most 12 and 4: up
+    /// to 4 saturations in its own warp and 2 in each of its 4 edge
+    /// corners; 4 shared corners).
     pub sat: [u8; 2],
 }
 

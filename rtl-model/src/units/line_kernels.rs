@@ -191,7 +191,7 @@ impl<'s> LineKernels<'s> {
                 fill_colour,
                 src_inv_z,
                 src_slopes: rec.slopes,
-                sat: [t.sat + ts, ks].map(|n| u8::try_from(n).expect("a kernel rounds a few tens of values")),
+                sat: [t.sat + ts, ks].map(|n| u8::try_from(n).expect("at most 12 saturations per kernel")),
             }));
         }
     }

@@ -4,7 +4,7 @@
 //! Job: turn a kernel's bounding box into the derived sample centres it
 //! covers, clipped to the stamp around the warped sample and to the image.
 //!
-//! Ports: in, a kernel (box, warped centre, candidate) from kernel setup;
+//! Ports: in, a kernel (its stamp, rule 5, and candidate) from kernel setup;
 //! out, up to `kernel_limit²` covered sample addresses with the flat
 //! candidate, to the compositor.
 //!
