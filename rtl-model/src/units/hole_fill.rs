@@ -58,8 +58,11 @@
 //!    already released in this warp are not waited for). A destination
 //!    cache look-up is counted once when the cursor enters a tile, and once
 //!    per hole for each distinct tile holding its taps (a retry after a
-//!    tap miss is not counted again). Every visit, hole or surface, costs
-//!    a slot.
+//!    tap miss is not counted again). While a hole's tap tiles are looked
+//!    up, its own tile and the tap tiles already looked up for it are
+//!    pinned: a miss on one tap tile never spills another the same hole
+//!    needs (with only the two at hand pinned, a small cache could trade
+//!    them for ever). Every visit, hole or surface, costs a slot.
 //!
 //! 8. Fallback mode ([`HoleFillUnit::new_fallback`], control in
 //!    `units::fallback_fill`): the same rules 2–6 over the reverse of the
@@ -419,14 +422,16 @@ impl HoleFillStage {
                 let mut ready = true;
                 // Each tap tile is looked up once per sample, however many
                 // of the taps fall in it.
-                let (mut seen, mut n_seen) = ([u32::MAX; 8], 0);
+                // The sample's own tile first, then its tap tiles: all of
+                // them pinned while any is looked up.
+                let (mut seen, mut n_seen) = ([u32::MAX; 9], 1);
+                seen[0] = t;
                 for (tx, ty) in HoleFillUnit::tap_positions(&line, x, y, &self.unit.params) {
                     if tx < 0 || ty < 0 || tx >= dw as i64 || ty >= dh as i64 {
                         continue;
                     }
                     let tt = io.cache.tile_of(tx as u32, ty as u32);
-                    if tt == t
-                        || seen[..n_seen].contains(&tt)
+                    if seen[..n_seen].contains(&tt)
                         || matches!(io.cache.state(tt), TileState::Untouched | TileState::Released)
                     {
                         continue;
@@ -436,7 +441,7 @@ impl HoleFillStage {
                         n_seen += 1;
                     }
                     // A retry of the same sample's taps is not counted again.
-                    if !io.cache.want(now, tt, !self.tap_retry, &[t, tt], io.frame, io.port) {
+                    if !io.cache.want(now, tt, !self.tap_retry, &seen[..n_seen], io.frame, io.port) {
                         ready = false;
                     }
                 }
