@@ -53,6 +53,13 @@ struct Io<'a> {
     tiles: &'a mut TileManager,
 }
 
+/// Kernel setup over `w`'s schedule with `lanes` lanes, computing its
+/// lines inline into `buffer`, from cycle 0.
+fn stage<'a>(w: &'a Warp, buffer: &'a mut LineBuffer, lanes: u32) -> KernelSetupStage<'a> {
+    let s = &w.sched;
+    KernelSetupStage::new(&s.lines, &s.need, &w.r, &w.tu, buffer, w.cfg.threshold, w.shape(), lanes, activity(Cycle(0)))
+}
+
 fn tick(k: &mut KernelSetupStage<'_>, now: Cycle, fetch_interval: usize, io: &mut Io<'_>) -> Tick {
     k.tick(now, &mut KernelSetupPorts { transform: io.transform, fetch_interval, out: io.out, tiles: io.tiles })
 }
@@ -71,17 +78,7 @@ fn a_line_starts_in_the_cycle_its_need_interval_leaves_the_transform_and_not_bef
     let mut out: Fifo<Kernel> = Fifo::new(64, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(
-        &s.lines,
-        &s.need,
-        &w.r,
-        &w.tu,
-        &mut buffer,
-        w.cfg.threshold,
-        w.shape(),
-        64,
-        activity(Cycle(0)),
-    );
+    let mut k = stage(&w, &mut buffer, 64);
     // The fetch unit pushes the last sample of interval n0 at cycle P: it
     // is visible at N = P + latency. Its cursor reads n0 until the end of
     // cycle P (kernel setup is ticked before the fetch unit).
@@ -128,17 +125,7 @@ fn a_full_kernel_fifo_stalls_it_on_fifo_full_until_the_rasterizer_pops() {
     let mut out: Fifo<Kernel> = Fifo::new(1, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(
-        &s.lines,
-        &s.need,
-        &w.r,
-        &w.tu,
-        &mut buffer,
-        w.cfg.threshold,
-        w.shape(),
-        4,
-        activity(Cycle(0)),
-    );
+    let mut k = stage(&w, &mut buffer, 4);
     let fi = s.fetch.len();
     let mut log = TickLog::new(Cycle(0));
     let mut io = Io { transform: &mut t, out: &mut out, tiles: &mut tiles };
@@ -169,17 +156,7 @@ fn lanes_bound_each_cycle_samples_without_a_surface_cost_nothing_and_each_kernel
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
     let lanes = 3;
-    let mut k = KernelSetupStage::new(
-        &s.lines,
-        &s.need,
-        &w.r,
-        &w.tu,
-        &mut buffer,
-        w.cfg.threshold,
-        w.shape(),
-        lanes,
-        activity(Cycle(0)),
-    );
+    let mut k = stage(&w, &mut buffer, lanes);
     let fi = s.fetch.len();
     let mut kernels = Vec::new();
     let mut c = 1;
@@ -236,17 +213,7 @@ fn a_culled_sample_takes_an_emission_slot_but_yields_no_kernel() {
     let mut out: Fifo<Kernel> = Fifo::new(1 << 20, 1);
     let mut tiles = TileManager::new(s.lines.len(), &s.retire);
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(
-        &s.lines,
-        &s.need,
-        &w.r,
-        &w.tu,
-        &mut buffer,
-        w.cfg.threshold,
-        w.shape(),
-        2,
-        activity(Cycle(0)),
-    );
+    let mut k = stage(&w, &mut buffer, 2);
     let fi = s.fetch.len();
     let mut busy = 0;
     for c in 1..1000 {
@@ -296,17 +263,7 @@ fn lines_computed_on_the_look_ahead_thread_leave_in_the_same_cycles_with_the_sam
     let w = Warp::new(&img, DVec3::new(0.3, -0.2, 0.4), 0.2, config());
     let s = &w.sched;
     let mut buffer = LineBuffer::default();
-    let mut k = KernelSetupStage::new(
-        &s.lines,
-        &s.need,
-        &w.r,
-        &w.tu,
-        &mut buffer,
-        w.cfg.threshold,
-        w.shape(),
-        3,
-        activity(Cycle(0)),
-    );
+    let mut k = stage(&w, &mut buffer, 3);
     let inline = run_to_end(&mut k, &w);
     let mut buffer = LineBuffer::default();
     let ahead = std::thread::scope(|scope| {
