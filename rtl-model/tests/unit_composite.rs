@@ -8,7 +8,9 @@
 //! each looked up once per stamp however long it waits, the tiles pinned
 //! against spills; a stamp waiting for a tile blocks the ones behind it
 //! (stall `tile`); a stamp still in the FIFO's transit leaves it stalled
-//! on `upstream`; a composited kernel is done in the tile manager.
+//! on `upstream`; a composited kernel is done in the tile manager. Rule 6
+//! (the miss queue) and rule 7 (the oldest waiting stamp's tiles reserved
+//! against other units' spills).
 
 use crate::common::{TickLog, Warp, activity, config, plane, stall};
 use glam::DVec3;
@@ -220,6 +222,7 @@ fn the_miss_queue_lets_the_compositor_proceed_past_a_missing_tile_but_never_past
     assert_eq!(t.state, UnitState::Busy, "the tile-3 stamp went in the same cycle");
     assert!(b.written(5, 5) && !b.written(0, 0), "past the missing tile");
     assert_eq!(c.bypasses(), 1);
+    assert_eq!(b.cache.reserved(), &[0], "rule 7: the queued stamp's tile");
     // Cycle 2: the third stamp shares tile 0: it queues behind the first.
     let t = log.note(Cycle(2), b.tick(&mut c, Cycle(2)));
     assert_eq!(t.state, stall(StallReason::Tile));
@@ -241,6 +244,7 @@ fn the_miss_queue_lets_the_compositor_proceed_past_a_missing_tile_but_never_past
         "same reference, within tolerance: the stored stays"
     );
     assert!(c.is_idle());
+    assert_eq!(b.cache.reserved(), &[] as &[u32], "no stamp waits");
     assert_eq!(log.note(arrival + 2, b.tick(&mut c, arrival + 2)).state, UnitState::Idle);
     log.check(Cycle(30), c.close(Cycle(30)));
     // Without a queue the same stamps go strictly in order.
@@ -253,4 +257,38 @@ fn the_miss_queue_lets_the_compositor_proceed_past_a_missing_tile_but_never_past
     b0.input.push(Cycle(0), stamp(3, (5, 6), (5, 6), 0.8)).unwrap();
     assert_eq!(b0.tick(&mut c0, Cycle(1)).state, stall(StallReason::Tile));
     assert!(!b0.written(5, 5), "blocked behind the missing tile");
+}
+
+/// Rule 7: a stamp blocked on a tile reserves all its tiles at the end of
+/// the cycle, so another unit's miss in the next cycle cannot spill the
+/// one already resident (in a two-tile cache that miss finds no victim and
+/// waits); once the stamp is composited the reservation is gone and the
+/// same miss spills. Without it, the hole fill and the compositor could
+/// spill each other's tiles for ever in a small cache.
+#[test]
+fn a_waiting_stamp_reserves_its_tiles_against_other_units_misses_until_it_goes() {
+    let w = warp();
+    let mut c = CompositeStage::new(&w.tu, w.cfg.slope_tol, w.cfg.rel_tol, 1, 0, activity(Cycle(0)));
+    // Warp 1 (loads take time), two slots; tile 1 on chip.
+    let mut b = Bench::new(2, 1, 100);
+    b.make_resident(Cycle(0), 1);
+    b.tiles.kernel_issued(0);
+    b.input.push(Cycle(0), stamp(0, (2, 5), (1, 2), 0.4)).unwrap(); // tiles 0 and 1
+    assert_eq!(b.cache.reserved(), &[] as &[u32]);
+    assert_eq!(b.tick(&mut c, Cycle(1)).state, stall(StallReason::Tile), "tile 0 is loading");
+    assert_eq!(b.cache.reserved(), &[0, 1], "reserved at the end of cycle N");
+    // Cycle N + 1: another unit (pinning only its own tile) misses on tile 2.
+    let writes = b.port.writes_waiting();
+    assert!(!b.cache.want(Cycle(2), 2, true, &[2], &mut b.frame, &mut b.port));
+    assert_eq!(b.cache.state(1), TileState::Resident, "the reserved tile stays");
+    assert_eq!(b.cache.state(2), TileState::Untouched, "no slot: the miss waits");
+    assert_eq!(b.port.writes_waiting(), writes, "nothing spilled");
+    let arrival = Cycle(20);
+    b.cache.arrived(arrival, 0, true, &mut b.frame);
+    assert_eq!(b.tick(&mut c, arrival).state, UnitState::Busy);
+    assert!(b.written(2, 1) && b.written(5, 2));
+    assert_eq!(b.cache.reserved(), &[] as &[u32], "cleared once no stamp waits");
+    assert!(!b.cache.want(arrival + 1, 2, true, &[2], &mut b.frame, &mut b.port));
+    assert_eq!(b.cache.state(2), TileState::Loading);
+    assert_eq!(b.port.writes_waiting(), writes + 1, "now the miss spills a victim");
 }

@@ -42,6 +42,13 @@
 //!    compositing gives. Each cycle the queue is served first, oldest
 //!    first, then the FIFO, `rects_per_cycle` stamps in all.
 //!
+//! 7. At the end of each cycle the oldest waiting stamp (the miss queue's
+//!    first, else a FIFO head blocked on a tile) reserves its tiles in the
+//!    destination cache (`dest_cache` rule 7): no other look-up spills
+//!    them, so it always gets them and the compositor drains, whatever
+//!    the hole fill and the packer look up beside it. With no stamp
+//!    waiting the reservation is cleared.
+//!
 //! Not modelled: bank conflicts inside the cache (one stamp per cycle).
 
 use super::dest_cache::DestCache;
@@ -319,9 +326,19 @@ impl<'s> CompositeStage<'s> {
                 if let Some(j) = io.input.oldest_mut() {
                     j.counted = true;
                 }
+                if self.queue.is_empty() {
+                    io.cache.reserve(&tiles[..n]);
+                }
                 waiting_tile = true;
                 break;
             }
+        }
+        // Rule 7: the oldest waiting stamp's tiles are reserved (a blocked
+        // FIFO head reserved its own above).
+        match self.queue.first() {
+            Some(w) => io.cache.reserve(&w.tiles[..w.n]),
+            None if !waiting_tile => io.cache.reserve(&[]),
+            None => {}
         }
         waiting_tile |= did == 0 && !self.queue.is_empty();
         let t = if did > 0 {

@@ -34,6 +34,14 @@
 //!    use slot `t` of `dest_tiles`; a spill writes and the reload after a
 //!    capacity miss reads slot `t` of `dest_spill` ([`DestCache::place`]).
 //!
+//! 7. Reservation ([`DestCache::reserve`]): the tiles of the compositor's
+//!    oldest waiting stamp (at most 4) are spilled by no one else's miss,
+//!    on top of the tiles each look-up pins. Units look up their tiles
+//!    side by side, each pinning only its own: without a reservation, two
+//!    of them in a small cache could spill each other's tiles for ever.
+//!    With it the oldest stamp always gets its tiles (the cache holds at
+//!    least 8), so the compositor drains and every unit finishes.
+//!
 //! Not modelled: tag look-up latency, bank conflicts.
 
 use super::tile_cache::{Lookup, TileCache, TileState};
@@ -62,6 +70,11 @@ pub struct DestCache {
     packed: Region,
     /// The spill area in DRAM.
     spill: Region,
+    /// Rule 7: the reserved tiles (count in `n_reserved`).
+    reserved: [u32; 4],
+    n_reserved: usize,
+    /// Scratch: a miss's pins and the reserved tiles.
+    pins: Vec<u32>,
 }
 
 impl DestCache {
@@ -82,7 +95,23 @@ impl DestCache {
             loads: 0,
             packed: Region::EMPTY,
             spill: Region::EMPTY,
+            reserved: [0; 4],
+            n_reserved: 0,
+            pins: Vec::new(),
         }
+    }
+
+    /// Rule 7: reserve `tiles` (at most 4) against other units' spills,
+    /// replacing the reservation before; an empty slice clears it.
+    #[inline]
+    pub fn reserve(&mut self, tiles: &[u32]) {
+        self.n_reserved = tiles.len();
+        self.reserved[..tiles.len()].copy_from_slice(tiles);
+    }
+
+    /// The reserved tiles (rule 7).
+    pub fn reserved(&self) -> &[u32] {
+        &self.reserved[..self.n_reserved]
     }
 
     /// Put the frame's packed tiles at `packed` and its spill area at
@@ -108,6 +137,7 @@ impl DestCache {
     pub fn begin_warp(&mut self, warp: usize) {
         self.warp = warp;
         self.loads = 0;
+        self.n_reserved = 0;
         self.tags.begin_warp();
     }
 
@@ -190,7 +220,14 @@ impl DestCache {
         f: &mut DestFrame,
         port: &mut MemPort,
     ) -> bool {
-        let (lookup, spilled) = self.tags.access(t, now, counted, pinned);
+        let (lookup, spilled) = if self.n_reserved == 0 {
+            self.tags.access(t, now, counted, pinned)
+        } else {
+            self.pins.clear();
+            self.pins.extend_from_slice(pinned);
+            self.pins.extend_from_slice(&self.reserved[..self.n_reserved]);
+            self.tags.access(t, now, counted, &self.pins)
+        };
         if let Some(v) = spilled {
             let (addr, bytes) = (self.spill_addr(v), self.raw_tile_bytes());
             port.write(Req { client: Client::TileWriteBack, access: Access::Write, addr, bytes, tag: Tag::Write });

@@ -36,7 +36,9 @@
 //!    runs rules 2–6 of `units::hole_fill` in its fallback mode.
 //! 4. The cursor stops (stall `tile`) until the sample's tile is resident,
 //!    and, for an empty sample, every tile holding one of its taps — clean
-//!    tiles too, which hold the sources.
+//!    tiles too, which hold the sources. While it looks one up it pins the
+//!    sample's tile and every tap tile looked up before (as the hole fill
+//!    does), so a tap's miss never spills another tile the sample needs.
 //! 5. Tiles leave in [`crate::schedule::release_order`] of the pass's lines,
 //!    once the cursor has passed (visited or skipped) the samples the order
 //!    gives them; tiles the pass never touched are passed over. A clean tile
@@ -343,13 +345,16 @@ impl FallbackStage {
             let hole = !io.frame.fill_valid[io.frame.index(x, y)];
             if hole {
                 let mut ready = true;
-                let (mut seen, mut n_seen) = ([u32::MAX; 8], 0);
+                // The sample's own tile first, then its tap tiles: all of
+                // them pinned while any is looked up (as in the hole fill).
+                let (mut seen, mut n_seen) = ([u32::MAX; 9], 1);
+                seen[0] = t;
                 for (tx, ty) in HoleFillUnit::tap_positions(&line, x, y, &self.unit.params()) {
                     if tx < 0 || ty < 0 || tx >= dw as i64 || ty >= dh as i64 {
                         continue;
                     }
                     let tt = io.cache.tile_of(tx as u32, ty as u32);
-                    if tt == t || seen[..n_seen].contains(&tt) {
+                    if seen[..n_seen].contains(&tt) {
                         continue;
                     }
                     if n_seen < seen.len() {
@@ -357,7 +362,7 @@ impl FallbackStage {
                         n_seen += 1;
                     }
                     // A retry of the same sample's taps is not counted again.
-                    if io.cache.want(now, tt, !self.tap_retry, &[t, tt], io.frame, io.port) {
+                    if io.cache.want(now, tt, !self.tap_retry, &seen[..n_seen], io.frame, io.port) {
                         self.prepare(tt, io.frame, io.cache);
                     } else {
                         ready = false;
