@@ -96,6 +96,7 @@ use crate::units::transform::{TransformStage, TransformUnit};
 use crate::units::{Activity, UnitCycles as Cycles, UnitState, display};
 use crate::warp_plan::WarpPlan;
 pub use crate::warp_plan::held_bands;
+use crate::watchdog::Watchdog;
 use bitvec::vec::BitVec;
 
 pub use crate::frame_stats::{FrameStats, RECT_HIST_MAX, UNITS, UnitCycles};
@@ -446,6 +447,20 @@ impl Machine<'_> {
         span
     }
 
+    /// What a stuck clock loop reports besides the units' states
+    /// (`watchdog` rule 3): the destination cache and the memory port.
+    fn stuck_details(&self) -> String {
+        let tags = self.cache.tags();
+        format!(
+            "destination cache {} of {} tiles held, reserved {:?}; memory port {} requests queued, {} writes waiting",
+            tags.occupancy(),
+            tags.capacity(),
+            self.cache.reserved(),
+            self.port.queued(),
+            self.port.writes_waiting()
+        )
+    }
+
     /// After the last warp: the display reads the frame as written back,
     /// every unit idle.
     fn display_read(&mut self) {
@@ -484,16 +499,19 @@ impl Machine<'_> {
             .with_fixed(self.fixed.map(|f| (f.colour, f.hole_weight)));
         let start = self.now;
         self.cache.begin_warp(warp);
+        let mut guard = Watchdog::new(["fallback_fill"], self.now, Watchdog::<1>::limit_for(cfg));
         loop {
             let now = self.now;
             let mut moved = self.deliver(f, None);
             moved |= self.port.issue(&mut self.dram, now);
             let marks = (self.port.queued(), self.cache.loads());
-            moved |= p.tick(now, &mut FallbackPorts { frame: f, cache: &mut self.cache, port: &mut self.port }).moved;
+            let ports = &mut FallbackPorts { frame: f, cache: &mut self.cache, port: &mut self.port };
+            moved |= guard.note(0, now, p.tick(now, ports)).moved;
             moved |= marks != (self.port.queued(), self.cache.loads());
             if p.is_done(now) && self.port.writes_waiting() == 0 {
                 break;
             }
+            guard.check(now, || self.stuck_details());
             let next =
                 if moved { None } else { [p.next_event(now), self.memory_event(now)].into_iter().flatten().min() };
             let span = self.advance(moved, next);
@@ -555,6 +573,8 @@ impl Machine<'_> {
 
     /// Clock a warp's pipeline until every unit has finished it.
     fn clock_warp(&mut self, f: &mut DestFrame, plan: &WarpPlan, mut p: Pipeline<'_>) {
+        let names = ["packer", "hole_fill", "composite", "raster", "kernel_setup", "fetch"];
+        let mut guard = Watchdog::new(names, self.now, Watchdog::<6>::limit_for(self.cfg));
         loop {
             let now = self.now;
             // 1–2. Memory: completions, then one request.
@@ -567,21 +587,24 @@ impl Machine<'_> {
             let (frame, cache, port) = (&mut *f, &mut self.cache, &mut self.port);
             // 3. A-buffer packer.
             let fill_visits = p.fill.visits();
-            moved |= p.packer.tick(now, &mut PackerPorts { fill_visits, frame, cache, port }).moved;
+            moved |= guard.note(0, now, p.packer.tick(now, &mut PackerPorts { fill_visits, frame, cache, port })).moved;
             // 4. Hole fill.
-            moved |= p.fill.tick(now, &mut HoleFillPorts { frame, cache, port, tiles: &p.tiles }).moved;
+            moved |=
+                guard.note(1, now, p.fill.tick(now, &mut HoleFillPorts { frame, cache, port, tiles: &p.tiles })).moved;
             // 5. Composite.
             let (input, tiles) = (&mut p.stamps, &mut p.tiles);
-            moved |= p.composite.tick(now, &mut CompositePorts { input, frame, cache, port, tiles }).moved;
+            moved |= guard
+                .note(2, now, p.composite.tick(now, &mut CompositePorts { input, frame, cache, port, tiles }))
+                .moved;
             // 6. Raster.
             let held = p.stamps.len();
             let (input, out) = (&mut p.kernels, &mut p.stamps);
-            moved |= p.raster.tick(now, &mut RasterPorts { input, out, tiles }).moved;
+            moved |= guard.note(3, now, p.raster.tick(now, &mut RasterPorts { input, out, tiles })).moved;
             prefetch_stamps(&p.stamps, held, frame);
             // 7. Kernel setup, then tile retirement.
             let (transform, fetch_interval) = (&mut p.transform, p.fetch.interval());
             let mut io = KernelSetupPorts { transform, fetch_interval, out: &mut p.kernels, tiles };
-            moved |= p.kernel.tick(now, &mut io).moved;
+            moved |= guard.note(4, now, p.kernel.tick(now, &mut io)).moved;
             moved |= p.tiles.tick(p.kernel.lines_emitted());
             if p.held_to_end.is_none() && p.kernel.is_done() {
                 p.held_to_end = Some(plan.held_to_end(cache));
@@ -590,13 +613,14 @@ impl Machine<'_> {
             let fronts = Fronts { warp_lines: p.kernel.lines_emitted(), fill_lines: p.fill.lines_done() };
             moved |= p.prefetch.tick(now, fronts, cache, frame, port);
             // 8. Fetch, then the transform pipeline's state.
-            moved |= p.fetch.tick(now, &mut FetchPorts { transform: &mut p.transform, port }).moved;
+            moved |= guard.note(5, now, p.fetch.tick(now, &mut FetchPorts { transform: &mut p.transform, port })).moved;
             p.transform.tick(now);
             moved |= marks != (self.port.queued(), self.cache.loads());
 
             if p.is_done(now) && self.port.writes_waiting() == 0 {
                 break;
             }
+            guard.check(now, || self.stuck_details());
             let next = if moved { None } else { p.next_event(now, self.memory_event(now)) };
             let span = self.advance(moved, next);
             if let Some(t) = &mut self.timeline {

@@ -37,6 +37,7 @@ pub mod timeline;
 pub mod traversal;
 pub mod units;
 pub mod warp_plan;
+pub mod watchdog;
 pub mod working_set;
 
 pub use camera::{Camera, Epipole, Intrinsics, PlanarCamera, Pose, WarpSetup};
