@@ -269,12 +269,12 @@ pub const CROSS_RULES: &[CrossRule<EngineConfig>] = &[
     },
     CrossRule {
         name: "eight_tiles_cached",
-        rule: "`dest_cache_bytes` holds at least 8 tiles of `tile_size`² × 16 B (a stamp and the hole-fill taps need \
-               them at once)",
+        rule: "`dest_cache_bytes` holds at least 8 tiles of `tile_size`² × 16 B (the compositor's oldest stamp keeps up \
+               to 4 reserved while the other units share the rest)",
         check: |c| {
             if c.dest_cache_bytes.checked_div(tile_bytes(c)).is_none_or(|tiles| tiles < 8) {
                 return Err(format!(
-                    "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): a stamp and the hole-fill taps need them at once",
+                    "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): the compositor's oldest stamp keeps up to 4 reserved while the other units share the rest",
                     c.dest_cache_bytes,
                     8 * tile_bytes(c)
                 ));

@@ -42,9 +42,10 @@
 //!    compositing gives. Each cycle the queue is served first, oldest
 //!    first, then the FIFO, `rects_per_cycle` stamps in all.
 //!
-//! 7. At the end of each cycle the oldest waiting stamp (the miss queue's
-//!    first, else a FIFO head blocked on a tile) reserves its tiles in the
-//!    destination cache (`dest_cache` rule 7): no other look-up spills
+//! 7. The oldest waiting stamp (the miss queue's first, else a FIFO head
+//!    blocked on a tile) reserves its tiles in the destination cache
+//!    (`dest_cache` rule 7), set at the end of each cycle and moved on at
+//!    once when the queue's first stamp is drawn: no other look-up spills
 //!    them, so it always gets them and the compositor drains, whatever
 //!    the hole fill and the packer look up beside it. With no stamp
 //!    waiting the reservation is cleared.
@@ -302,6 +303,13 @@ impl<'s> CompositeStage<'s> {
                 self.bypasses += 1;
             }
             let w = self.queue.remove(k);
+            if k == 0 {
+                // Rule 7: the next oldest is protected from here on.
+                match self.queue.first() {
+                    Some(o) => io.cache.reserve(&o.tiles[..o.n]),
+                    None => io.cache.reserve(&[]),
+                }
+            }
             self.draw(w.job, io);
             did += 1;
         }

@@ -263,7 +263,10 @@ impl FallbackStage {
         self.pack_activity.record(now, pack);
         let fill = self.fill_tick(now, io);
         self.fill_activity.record(now, fill);
-        Tick { state: fill.state, moved: pack.moved || fill.moved }
+        // Either half's work is the pass's progress (the engine's
+        // watchdog sees this state).
+        let state = if pack.state == UnitState::Busy { UnitState::Busy } else { fill.state };
+        Tick { state, moved: pack.moved || fill.moved }
     }
 
     fn pack_tick(&mut self, now: Cycle, io: &mut FallbackPorts<'_>) -> Tick {
