@@ -96,7 +96,7 @@ use crate::units::transform::{TransformStage, TransformUnit};
 use crate::units::{Activity, UnitCycles as Cycles, UnitState, display};
 use crate::warp_plan::WarpPlan;
 pub use crate::warp_plan::held_bands;
-use crate::watchdog::Watchdog;
+use crate::watchdog::{self, Watchdog};
 use bitvec::vec::BitVec;
 
 pub use crate::frame_stats::{FrameStats, RECT_HIST_MAX, UNITS, UnitCycles};
@@ -499,7 +499,7 @@ impl Machine<'_> {
             .with_fixed(self.fixed.map(|f| (f.colour, f.hole_weight)));
         let start = self.now;
         self.cache.begin_warp(warp);
-        let mut guard = Watchdog::new(["fallback_fill"], self.now, Watchdog::<1>::limit_for(cfg));
+        let mut guard = Watchdog::new(["fallback_fill"], self.now, watchdog::limit_for(cfg));
         loop {
             let now = self.now;
             let mut moved = self.deliver(f, None);
@@ -574,7 +574,7 @@ impl Machine<'_> {
     /// Clock a warp's pipeline until every unit has finished it.
     fn clock_warp(&mut self, f: &mut DestFrame, plan: &WarpPlan, mut p: Pipeline<'_>) {
         let names = ["packer", "hole_fill", "composite", "raster", "kernel_setup", "fetch"];
-        let mut guard = Watchdog::new(names, self.now, Watchdog::<6>::limit_for(self.cfg));
+        let mut guard = Watchdog::new(names, self.now, watchdog::limit_for(self.cfg));
         loop {
             let now = self.now;
             // 1–2. Memory: completions, then one request.

@@ -11,7 +11,7 @@
 //!    DRAM, tile loads and write-backs queued behind each other (the
 //!    fallback pass's last write-backs one after another, with one
 //!    request outstanding at the slowest latency). The limit
-//!    ([`Watchdog::limit_for`]) is 2²⁴ cycles or 1024 such requests,
+//!    ([`limit_for`]) is 2²⁴ cycles or 1024 such requests,
 //!    whichever is longer: a request is the DRAM latency plus a raw tile
 //!    rounded up to whole bursts at the peak rate (at 8 cycles per byte
 //!    with the `dramsim3` backend, whose rate the engine's knobs do not
@@ -28,6 +28,15 @@ use crate::clock::Cycle;
 use crate::config::{CACHE_BYTES_PER_SAMPLE, EngineConfig};
 use crate::units::{Tick, UnitState};
 
+/// The limit of rule 2 for `cfg` (cycles).
+pub fn limit_for(cfg: &EngineConfig) -> u64 {
+    let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * CACHE_BYTES_PER_SAMPLE;
+    let bytes = tile_bytes.next_multiple_of(cfg.dram_burst_bytes.max(1));
+    let transfer =
+        if cfg.dram_backend == "ideal" { bytes.div_ceil(cfg.dram_peak_bytes_per_cycle.max(1)) } else { bytes * 8 };
+    (1u64 << 24).max(1024 * (cfg.dram_latency_cycles + transfer))
+}
+
 /// The guard of one clock loop over `N` units.
 pub struct Watchdog<const N: usize> {
     names: [&'static str; N],
@@ -37,15 +46,6 @@ pub struct Watchdog<const N: usize> {
 }
 
 impl<const N: usize> Watchdog<N> {
-    /// The limit of rule 2 for `cfg` (cycles).
-    pub fn limit_for(cfg: &EngineConfig) -> u64 {
-        let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * CACHE_BYTES_PER_SAMPLE;
-        let bytes = tile_bytes.next_multiple_of(cfg.dram_burst_bytes.max(1));
-        let transfer =
-            if cfg.dram_backend == "ideal" { bytes.div_ceil(cfg.dram_peak_bytes_per_cycle.max(1)) } else { bytes * 8 };
-        (1u64 << 24).max(1024 * (cfg.dram_latency_cycles + transfer))
-    }
-
     /// A guard over the units `names` (in the order the engine reports
     /// them), with progress last seen at `now` and `limit` cycles allowed
     /// without it.
@@ -122,17 +122,17 @@ mod tests {
     #[test]
     fn the_limit_covers_a_thousand_serial_tile_requests() {
         let cfg = EngineConfig::default();
-        assert_eq!(Watchdog::<1>::limit_for(&cfg), 1 << 24);
+        assert_eq!(limit_for(&cfg), 1 << 24);
         let tile = 256 * 256 * CACHE_BYTES_PER_SAMPLE;
         let slow = EngineConfig { tile_size: 256, dram_peak_bytes_per_cycle: 1, ..EngineConfig::default() };
-        assert_eq!(Watchdog::<1>::limit_for(&slow), 1024 * (12 + tile));
+        assert_eq!(limit_for(&slow), 1024 * (12 + tile));
         // The slowest latency, one request at a time: 1024 round trips.
         let far = EngineConfig { dram_latency_cycles: 1_000_000, dram_max_outstanding: 1, ..EngineConfig::default() };
-        assert_eq!(Watchdog::<1>::limit_for(&far), 1024 * (1_000_000 + 8 * 8 * CACHE_BYTES_PER_SAMPLE / 16));
+        assert_eq!(limit_for(&far), 1024 * (1_000_000 + 8 * 8 * CACHE_BYTES_PER_SAMPLE / 16));
         // A burst larger than a tile: the whole burst moves.
         let burst = EngineConfig { tile_size: 4, dram_burst_bytes: 4096, dram_peak_bytes_per_cycle: 1, ..far };
-        assert_eq!(Watchdog::<1>::limit_for(&burst), 1024 * (1_000_000 + 4096));
+        assert_eq!(limit_for(&burst), 1024 * (1_000_000 + 4096));
         let ds = EngineConfig { dram_backend: "dramsim3".into(), tile_size: 256, ..EngineConfig::default() };
-        assert_eq!(Watchdog::<1>::limit_for(&ds), 1024 * (12 + 8 * tile));
+        assert_eq!(limit_for(&ds), 1024 * (12 + 8 * tile));
     }
 }

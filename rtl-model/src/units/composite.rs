@@ -198,8 +198,13 @@ struct Waiting {
 }
 
 impl Waiting {
+    /// The stamp's tiles.
+    fn tiles(&self) -> &[u32] {
+        &self.tiles[..self.n]
+    }
+
     fn shares_a_tile(&self, tiles: &[u32]) -> bool {
-        self.tiles[..self.n].iter().any(|t| tiles.contains(t))
+        self.tiles().iter().any(|t| tiles.contains(t))
     }
 }
 
@@ -261,6 +266,13 @@ impl<'s> CompositeStage<'s> {
         ready
     }
 
+    /// Rule 7: reserve the miss queue's first stamp's tiles, or clear the
+    /// reservation when none is queued.
+    #[inline]
+    fn reserve_oldest(&self, cache: &mut DestCache) {
+        cache.reserve(self.queue.first().map_or(&[], Waiting::tiles));
+    }
+
     /// Composite one stamp whose tiles are resident.
     #[inline]
     fn draw(&mut self, mut job: Stamped, io: &mut CompositePorts<'_>) {
@@ -293,8 +305,7 @@ impl<'s> CompositeStage<'s> {
         // that shares a tile with an older queued stamp keeps its place.
         let mut k = 0;
         while k < self.queue.len() && did < self.lanes {
-            let w = &self.queue[k];
-            let tiles = &w.tiles[..w.n];
+            let tiles = self.queue[k].tiles();
             if self.queue[..k].iter().any(|o| o.shares_a_tile(tiles)) || !Self::ready(now, tiles, false, io) {
                 k += 1;
                 continue;
@@ -305,10 +316,7 @@ impl<'s> CompositeStage<'s> {
             let w = self.queue.remove(k);
             if k == 0 {
                 // Rule 7: the next oldest is protected from here on.
-                match self.queue.first() {
-                    Some(o) => io.cache.reserve(&o.tiles[..o.n]),
-                    None => io.cache.reserve(&[]),
-                }
+                self.reserve_oldest(io.cache);
             }
             self.draw(w.job, io);
             did += 1;
@@ -342,11 +350,9 @@ impl<'s> CompositeStage<'s> {
             }
         }
         // Rule 7: the oldest waiting stamp's tiles are reserved (a blocked
-        // FIFO head reserved its own above).
-        match self.queue.first() {
-            Some(w) => io.cache.reserve(&w.tiles[..w.n]),
-            None if !waiting_tile => io.cache.reserve(&[]),
-            None => {}
+        // FIFO head with nothing queued reserved its own above).
+        if !(self.queue.is_empty() && waiting_tile) {
+            self.reserve_oldest(io.cache);
         }
         waiting_tile |= did == 0 && !self.queue.is_empty();
         let t = if did > 0 {
