@@ -42,9 +42,9 @@
 //!    the load still in flight waits (a *late* miss); one that finds a tile
 //!    the schedule did not load is a *demand* miss.
 //! 7. A miss that needs room first drops the newest prefetched tile not
-//!    yet used: it is clean (as loaded), so it goes without a write and is
-//!    untouched again (its next access is a demand miss). Only with none
-//!    does it spill by rule 4.
+//!    yet used and not pinned: it is clean (as loaded), so it goes without
+//!    a write and is untouched again (its next access is a demand miss).
+//!    Only with none does it spill by rule 4.
 //!
 //! Not modelled: tag lookup latency and bank conflicts (an access to a
 //! resident tile costs nothing beyond the unit's cycle), write-buffer
@@ -295,18 +295,23 @@ impl TileCache {
     }
 
     /// Rule 7: drop the newest prefetched tile not used yet (resident,
-    /// unpinned); false if there is none.
+    /// unpinned); false if there is none. Entries found used or no longer
+    /// resident leave the list as they are met; a pinned one stays and the
+    /// search goes on to older ones.
     fn drop_unused(&mut self, pinned: &[u32]) -> bool {
-        while let Some(&t) = self.prefetched.last() {
+        let mut k = self.prefetched.len();
+        while k > 0 {
+            k -= 1;
+            let t = self.prefetched[k];
             let ti = t as usize;
             if self.state[ti] != TileState::Resident || self.used[ti] {
-                self.prefetched.pop();
+                self.prefetched.remove(k);
                 continue;
             }
             if pinned.contains(&t) {
-                return false;
+                continue;
             }
-            self.prefetched.pop();
+            self.prefetched.remove(k);
             self.remove_resident(t);
             self.state[ti] = TileState::Untouched;
             self.counters.prefetch_drops += 1;
@@ -347,6 +352,28 @@ mod tests {
         assert_eq!((k.accesses, k.hits, k.misses_late, k.misses_demand), (4, 1, 1, 2));
         assert_eq!((k.prefetches, k.prefetch_drops, k.misses_compulsory, k.spills), (2, 1, 4, 1));
         assert_eq!(c.peak(), 2);
+    }
+
+    #[test]
+    fn a_miss_drops_an_older_unused_prefetch_when_the_newest_is_pinned() {
+        let mut c = TileCache::new(3, 5);
+        assert!(c.prefetch(0) && c.prefetch(1) && c.prefetch(2));
+        for t in 0..3 {
+            c.loaded(t, Cycle(1));
+        }
+        // Tile 2 (the newest prefetch) is pinned by the access in progress:
+        // the miss drops tile 1, the newest unpinned one, and spills nothing.
+        assert_eq!(c.access(3, Cycle(2), true, &[2]), (Lookup::Compulsory, None));
+        assert_eq!(
+            (c.state(0), c.state(1), c.state(2)),
+            (TileState::Resident, TileState::Untouched, TileState::Resident)
+        );
+        c.loaded(3, Cycle(3));
+        // Tiles 2 and 0 still unused and pinned: with no unused prefetch
+        // left to drop, the miss spills the least recently used unpinned tile.
+        assert_eq!(c.access(4, Cycle(4), true, &[0, 2]), (Lookup::Compulsory, Some(3)));
+        let k = &c.counters;
+        assert_eq!((k.prefetch_drops, k.spills), (1, 1));
     }
 
     #[test]
