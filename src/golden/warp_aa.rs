@@ -83,11 +83,14 @@ struct WarpedRow {
     ok: Vec<bool>,
     /// Fixed mode: the warp's saturations (0 in float mode).
     sat: Vec<u32>,
+    /// The reference's 1/Z ([`PreparedReference::inv_z`]), kept for the
+    /// row's kernel slopes.
+    ref_inv_z: Vec<f64>,
 }
 
 impl WarpedRow {
     fn resize(&mut self, n: usize) {
-        for v in [&mut self.px, &mut self.py, &mut self.inv_z, &mut self.e] {
+        for v in [&mut self.px, &mut self.py, &mut self.inv_z, &mut self.e, &mut self.ref_inv_z] {
             v.resize(n, 0.0);
         }
         self.ok.resize(n, false);
@@ -197,6 +200,10 @@ pub(super) fn warp_reference(
     if q.y0 < q.y1 {
         transform_row(ctx, prepared, &q, q.y0 + 1, &mut rows.warped[1], st);
     }
+    // Derived slopes, and the better-reference masks when earlier warps
+    // have stored samples the kernels may meet (compositing rule 3;
+    // otherwise on demand), are computed per row after phase A (`KernelSlopes`).
+    let mut slopes = KernelSlopes { masks_now: source > 0, batch: Box::default() };
     let phase_a = PhaseA { ctx, img, prepared, cfg, q, live: &live, size: (d.width, d.height) };
     for y in q.y0..=q.y1 {
         let r = (y - q.y0) as usize;
@@ -211,7 +218,9 @@ pub(super) fn warp_reference(
             rows.groups[r % 2].fast.fill(false);
         }
         if (ry0..=ry1).contains(&y) {
+            let first = kernels.len();
             phase_a.row(y, rows, kernels, slots, overflow, &mut hist, st);
+            slopes.row(ctx, img, &rows.warped[r % 3], q.x0, &mut kernels[first..], st);
         }
         if y + 2 <= q.y1 {
             transform_row(ctx, prepared, &q, y + 2, &mut rows.warped[(r + 2) % 3], st);
@@ -223,45 +232,6 @@ pub(super) fn warp_reference(
         }
     }
 
-    // Derived slopes, and the better-reference masks when earlier warps
-    // have stored samples the kernels may meet (compositing rule 3;
-    // otherwise on demand), in loops of their own over batches of kernels:
-    // they vectorise, and the divisions of successive kernels overlap where
-    // inside phase A each stalled it.
-    let masks_now = source > 0;
-    let mut batch = SampleBatch::default();
-    let (mut slopes, mut masks) = ([[0.0; 2]; BATCH], [0u32; BATCH]);
-    for chunk in kernels.chunks_mut(BATCH) {
-        let n = chunk.len();
-        for (k, kern) in chunk.iter().enumerate() {
-            let i = img.index(kern.x, kern.y);
-            batch.x[k] = kern.x as f64;
-            batch.y[k] = kern.y as f64;
-            batch.inv_z[k] = prepared.inv_z(i);
-            batch.sx[k] = img.inv_z_slopes[i][0] as f64;
-            batch.sy[k] = img.inv_z_slopes[i][1] as f64;
-        }
-        ctx.dest_slopes_batch(&batch, &mut slopes[..n]);
-        if let Some(f) = ctx.fixed() {
-            // Fixed mode: the derived slopes in `q_slope` (the raster's).
-            let mut sat = 0;
-            for s in &mut slopes[..n] {
-                *s = s.map(|v| f.slope.q(v, &mut sat));
-            }
-            if let Some(s) = &mut st.saturations {
-                s.raster += sat as u64;
-            }
-        }
-        for (kern, s) in chunk.iter_mut().zip(&slopes) {
-            kern.slopes = [s[0] as f32, s[1] as f32];
-        }
-        if masks_now {
-            ctx.better_mask_batch(&mut batch, &mut masks[..n]);
-            for (kern, &m) in chunk.iter_mut().zip(&masks) {
-                kern.better.set(m as u16);
-            }
-        }
-    }
     // Phase B: per derived sample, composite its candidates in warp order.
     // Compositing touches only its own sample, so this equals drawing the
     // kernels one by one in warp order (rule 2). The overflow list sorted
@@ -294,6 +264,65 @@ pub(super) fn warp_reference(
     }
     for (k, &n) in counts.iter().enumerate() {
         count_outcomes(st, OUTCOME_ORDER[k], n);
+    }
+}
+
+/// The derived slopes and better-reference masks of a row's kernels, in
+/// loops of their own over batches of kernels: they vectorise, and the
+/// divisions of successive kernels overlap where inside phase A each
+/// stalled it. The reference's 1/Z and slopes are read from the row just
+/// warped (still in cache), not from the whole image.
+struct KernelSlopes {
+    /// Masks now (earlier warps have stored samples), not on demand.
+    masks_now: bool,
+    batch: Box<SampleBatch>,
+}
+
+impl KernelSlopes {
+    /// Slopes (and masks) of `kernels`, all of reference row `row`'s
+    /// samples, whose columns start at `x0`.
+    fn row(
+        &mut self,
+        ctx: &WarpContext,
+        img: &SampleImage,
+        row: &WarpedRow,
+        x0: u32,
+        kernels: &mut [Kernel],
+        st: &mut GoldenStats,
+    ) {
+        let batch = &mut *self.batch;
+        let (mut slopes, mut masks) = ([[0.0; 2]; BATCH], [0u32; BATCH]);
+        for chunk in kernels.chunks_mut(BATCH) {
+            let n = chunk.len();
+            for (k, kern) in chunk.iter().enumerate() {
+                let i = img.index(kern.x, kern.y);
+                batch.x[k] = kern.x as f64;
+                batch.y[k] = kern.y as f64;
+                batch.inv_z[k] = row.ref_inv_z[(kern.x - x0) as usize];
+                batch.sx[k] = img.inv_z_slopes[i][0] as f64;
+                batch.sy[k] = img.inv_z_slopes[i][1] as f64;
+            }
+            ctx.dest_slopes_batch(batch, &mut slopes[..n]);
+            if let Some(f) = ctx.fixed() {
+                // Fixed mode: the derived slopes in `q_slope` (the raster's).
+                let mut sat = 0;
+                for s in &mut slopes[..n] {
+                    *s = s.map(|v| f.slope.q(v, &mut sat));
+                }
+                if let Some(s) = &mut st.saturations {
+                    s.raster += sat as u64;
+                }
+            }
+            for (kern, s) in chunk.iter_mut().zip(&slopes) {
+                kern.slopes = [s[0] as f32, s[1] as f32];
+            }
+            if self.masks_now {
+                ctx.better_mask_batch(batch, &mut masks[..n]);
+                for (kern, &m) in chunk.iter_mut().zip(&masks) {
+                    kern.better.set(m as u16);
+                }
+            }
+        }
     }
 }
 
@@ -387,6 +416,7 @@ fn transform_row(
         } else {
             ctx.transform_batch((q.x0 as usize + c) as f64, y as f64, &inv_z[..m], &mut batch[..m], &mut ok[..m]);
         }
+        out.ref_inv_z[c..c + m].copy_from_slice(&inv_z[..m]);
         let valid = &img.valid[i..i + m];
         for k in 0..m {
             let [px, py, inv_z, e] = batch[k];
