@@ -618,7 +618,7 @@ impl PhaseA<'_> {
                     x,
                     y,
                     inv_z: t.inv_z as f32,
-                    slopes: [0.0; 2],                      // set below, in a pass of their own
+                    slopes: [0.0; 2],                      // set after the row (`KernelSlopes`)
                     better: std::cell::Cell::new(UNKNOWN), // below or on demand
                     fill,
                 });
