@@ -270,8 +270,8 @@ pub(super) fn warp_reference(
 /// The derived slopes and better-reference masks of a row's kernels, in
 /// loops of their own over batches of kernels: they vectorise, and the
 /// divisions of successive kernels overlap where inside phase A each
-/// stalled it. The reference's 1/Z and slopes are read from the row just
-/// warped (still in cache), not from the whole image.
+/// stalled it. The reference's 1/Z is read from the row just warped (not
+/// divided again), its slopes from that row of the image.
 struct KernelSlopes {
     /// Masks now (earlier warps have stored samples), not on demand.
     masks_now: bool,
@@ -619,7 +619,7 @@ impl PhaseA<'_> {
                     y,
                     inv_z: t.inv_z as f32,
                     slopes: [0.0; 2],                      // set after the row (`KernelSlopes`)
-                    better: std::cell::Cell::new(UNKNOWN), // below or on demand
+                    better: std::cell::Cell::new(UNKNOWN), // after the row or on demand
                     fill,
                 });
             }

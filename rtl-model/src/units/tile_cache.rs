@@ -297,18 +297,24 @@ impl TileCache {
     /// Rule 7: drop the newest prefetched tile not used yet (resident,
     /// unpinned); false if there is none. Entries found used or no longer
     /// resident leave the list as they are met; a pinned one stays and the
-    /// search goes on to older ones.
+    /// search goes on to older ones, past which a load still in flight
+    /// stays listed too (it may arrive unused and be dropped later).
     fn drop_unused(&mut self, pinned: &[u32]) -> bool {
         let mut k = self.prefetched.len();
+        let mut passed_pinned = false;
         while k > 0 {
             k -= 1;
             let t = self.prefetched[k];
             let ti = t as usize;
+            if passed_pinned && self.state[ti] == TileState::Loading {
+                continue;
+            }
             if self.state[ti] != TileState::Resident || self.used[ti] {
                 self.prefetched.remove(k);
                 continue;
             }
             if pinned.contains(&t) {
+                passed_pinned = true;
                 continue;
             }
             self.prefetched.remove(k);
@@ -374,6 +380,21 @@ mod tests {
         assert_eq!(c.access(4, Cycle(4), true, &[0, 2]), (Lookup::Compulsory, Some(3)));
         let k = &c.counters;
         assert_eq!((k.prefetch_drops, k.spills), (1, 1));
+    }
+
+    #[test]
+    fn a_prefetch_still_loading_below_a_pinned_one_can_be_dropped_once_it_arrives() {
+        let mut c = TileCache::new(3, 5);
+        assert!(c.prefetch(0) && c.prefetch(1) && c.prefetch(2));
+        c.loaded(2, Cycle(1));
+        // Tile 2 pinned, tiles 0 and 1 still loading: nothing to drop or spill.
+        assert_eq!(c.access(3, Cycle(2), true, &[2]), (Lookup::Full, None));
+        // Tile 1 arrives unused: the retry drops it rather than spill.
+        c.loaded(1, Cycle(3));
+        assert_eq!(c.access(3, Cycle(4), false, &[2]), (Lookup::Compulsory, None));
+        assert_eq!(c.state(1), TileState::Untouched);
+        let k = &c.counters;
+        assert_eq!((k.prefetch_drops, k.spills), (1, 0));
     }
 
     #[test]
