@@ -82,12 +82,15 @@ pub fn to_json(c: &EngineConfig) -> serde_json::Value {
 
 /// The configuration a `config` object of `report.json` describes (knobs
 /// absent from it keep `mark1998`'s values; old names are read as the
-/// current ones).
+/// current ones), refused unless it validates: a run never writes an
+/// invalid one, and the rates and budget made from it would divide by
+/// zero (`supersample = 0`).
 pub fn from_json_map(m: &serde_json::Map<String, serde_json::Value>) -> anyhow::Result<EngineConfig> {
     let mut c = EngineConfig::default();
     for (k, v) in m {
         crate::knobs::set_json(KNOBS, &mut c, current_knob_name(k), v).map_err(|e| anyhow!("{k}: {e}"))?;
     }
+    c.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(c)
 }
 
@@ -190,5 +193,15 @@ mod tests {
             assert_eq!(parse(&text).unwrap(), c, "{preset}");
             assert_eq!(from_json_map(&to_json_map(&c)).unwrap(), c);
         }
+    }
+
+    #[test]
+    fn a_report_config_that_does_not_validate_is_refused_with_its_knob() {
+        let mut m = to_json_map(&EngineConfig::default());
+        m.insert("supersample".into(), 0.into());
+        let e = from_json_map(&m).unwrap_err().to_string();
+        assert!(e.contains("supersample"), "{e}");
+        m.insert("supersample".into(), 2.into());
+        assert_eq!(from_json_map(&m).unwrap(), EngineConfig::default());
     }
 }
