@@ -239,7 +239,7 @@ crate::knob_table_with_shared! {
 }
 
 /// Bytes of one destination tile in the cache.
-fn tile_bytes(c: &EngineConfig) -> u64 {
+pub fn tile_bytes(c: &EngineConfig) -> u64 {
     u64::from(c.tile_size).pow(2) * CACHE_BYTES_PER_SAMPLE
 }
 

@@ -375,7 +375,7 @@ const PORT_SERIES: usize = 3;
 const CACHE_SERIES: usize = 4;
 
 fn occupancy_series(cfg: &EngineConfig) -> Vec<Occupancy> {
-    let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * crate::config::CACHE_BYTES_PER_SAMPLE;
+    let tile_bytes = crate::config::tile_bytes(cfg);
     let pipe = cfg.transform_throughput as u64 * (cfg.transform_latency as u64 + 1);
     vec![
         Occupancy::new("transform pipeline", "samples", pipe),

@@ -25,13 +25,12 @@
 //! timed or counted.
 
 use crate::clock::Cycle;
-use crate::config::{CACHE_BYTES_PER_SAMPLE, EngineConfig};
+use crate::config::{EngineConfig, tile_bytes};
 use crate::units::{Tick, UnitState};
 
 /// The limit of rule 2 for `cfg` (cycles).
 pub fn limit_for(cfg: &EngineConfig) -> u64 {
-    let tile_bytes = cfg.tile_size as u64 * cfg.tile_size as u64 * CACHE_BYTES_PER_SAMPLE;
-    let bytes = tile_bytes.next_multiple_of(cfg.dram_burst_bytes.max(1));
+    let bytes = tile_bytes(cfg).next_multiple_of(cfg.dram_burst_bytes.max(1));
     let transfer =
         if cfg.dram_backend == "ideal" { bytes.div_ceil(cfg.dram_peak_bytes_per_cycle.max(1)) } else { bytes * 8 };
     (1u64 << 24).max(1024 * (cfg.dram_latency_cycles + transfer))
@@ -92,6 +91,7 @@ impl<const N: usize> Watchdog<N> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::CACHE_BYTES_PER_SAMPLE;
     use crate::units::StallReason;
 
     fn tick(state: UnitState) -> Tick {

@@ -398,25 +398,25 @@ fn transform_row(
     let n = q.width();
     let mut batch = [[0.0; 4]; BATCH];
     let mut ok = [false; BATCH];
-    let mut inv_z = [0.0; BATCH];
     for c in (0..n).step_by(BATCH) {
         let m = (n - c).min(BATCH);
         let i = i0 + c;
-        prepared.inv_z_into(i, &mut inv_z[..m]);
+        // The reference's 1/Z, kept in the row for its kernel slopes.
+        let inv_z = &mut out.ref_inv_z[c..c + m];
+        prepared.inv_z_into(i, inv_z);
         // A batch at a time (the transform's loop vectorises).
         if ctx.fixed().is_some() {
             ctx.transform_batch_fixed(
                 (q.x0 as usize + c) as f64,
                 y as f64,
-                &inv_z[..m],
+                inv_z,
                 &mut batch[..m],
                 &mut ok[..m],
                 &mut out.sat[c..c + m],
             );
         } else {
-            ctx.transform_batch((q.x0 as usize + c) as f64, y as f64, &inv_z[..m], &mut batch[..m], &mut ok[..m]);
+            ctx.transform_batch((q.x0 as usize + c) as f64, y as f64, inv_z, &mut batch[..m], &mut ok[..m]);
         }
-        out.ref_inv_z[c..c + m].copy_from_slice(&inv_z[..m]);
         let valid = &img.valid[i..i + m];
         for k in 0..m {
             let [px, py, inv_z, e] = batch[k];
