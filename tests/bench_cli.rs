@@ -1,6 +1,7 @@
 //! `postwarp bench --quick --hmd`: the printed table has every row (the
-//! headset row on its small frame), each with positive times and rates,
-//! and peak RSS per reference sample for the process rows.
+//! headset row on its small frame, the golden model at both vector levels),
+//! each with positive times and rates, and peak RSS per reference sample
+//! for the process rows.
 
 use std::process::Command;
 
@@ -31,6 +32,7 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
         [
             "engine golden",
             "engine forward-splat",
+            "engine golden baseline-instructions",
             "engine hardware-model",
             "engine hardware-model one-thread",
             "process golden",
@@ -41,8 +43,8 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
         ],
         "{text}"
     );
-    assert!(rows[4][1].starts_with("traces/motorcycle 741x500") && rows[5][1] == rows[4][1], "{text}");
-    assert!(rows[8][1].starts_with("room 200x200 2x2") && rows[8][1].ends_with("preset hmd2026"), "{text}");
+    assert!(rows[5][1].starts_with("traces/motorcycle 741x500") && rows[6][1] == rows[5][1], "{text}");
+    assert!(rows[9][1].starts_with("room 200x200 2x2") && rows[9][1].ends_with("preset hmd2026"), "{text}");
     for r in &rows {
         assert_eq!(r.len(), 8, "eight columns: {r:?}");
         let threads: usize = r[2].parse().expect("threads");
@@ -71,4 +73,7 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
         .and_then(|n| n.parse::<f64>().ok())
         .expect("the ratio line");
     assert!(ratio > 0.0, "{text}");
+    // The vector level the golden rows ran at is named.
+    assert!(head.contains("golden warps at vector level "), "{head}");
+    assert!(text.lines().any(|l| l.starts_with("golden at the baseline level: ")), "{text}");
 }

@@ -4,7 +4,9 @@
 //! Rules:
 //! 1. Engine rows time one call on frames already in memory, in a
 //!    one-thread pool (as `cargo bench` does): `golden` is
-//!    `Warper::warp_frame` on the A-buffered references, `forward-splat`
+//!    `Warper::warp_frame` on the A-buffered references (at the host's
+//!    widest vector level, and again as `golden baseline-instructions` at
+//!    the build's baseline: `golden::vector_level`), `forward-splat`
 //!    is `forward_splat_with` on the same references and 1/Z planes,
 //!    `hardware-model` is `Engine::run_frame` (preset mark1998) on the
 //!    references packed once, as the engine runs by default (its
@@ -33,6 +35,7 @@
 use crate::bench::{BenchFrame, quick_spec, standard_spec};
 use crate::golden::config::GoldenConfig;
 use crate::golden::frame::{PreparedReference, Warper, inv_z_plane, prepare_reference};
+use crate::golden::vector_level::VectorLevel;
 use crate::methods::baselines::forward_splat::forward_splat_with;
 use crate::trace::Trace;
 use anyhow::Context;
@@ -272,24 +275,20 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let prepared: Vec<PreparedReference> =
         frame.refs.iter().map(|img| prepare_reference(img, frame.spec.supersample, &gcfg)).collect();
     let valid: u64 = prepared.iter().map(|p| p.samples.valid.count_ones() as u64).sum();
-    {
+    let time_golden = |baseline: bool| -> anyhow::Result<Row> {
         let refs: Vec<&PreparedReference> = prepared.iter().collect();
         let mut warper = Warper::new();
+        warper.baseline_instructions(baseline);
         let t = pool.install(|| {
             repeat(repeats, true, || {
                 black_box(warper.warp_frame(&frame.cmd, &refs, &gcfg));
                 Ok(())
             })
         })?;
-        rows.push(Row {
-            what: "engine golden".into(),
-            input: frame_name.clone(),
-            threads: 1,
-            times: t,
-            samples: valid,
-            peak: None,
-        });
-    }
+        let what = if baseline { "engine golden baseline-instructions" } else { "engine golden" };
+        Ok(Row { what: what.into(), input: frame_name.clone(), threads: 1, times: t, samples: valid, peak: None })
+    };
+    rows.push(time_golden(false)?);
     {
         let refs: Vec<&SampleImage> = prepared.iter().map(|p| &p.samples).collect();
         // The splat's input: each reference's 1/Z plane, made outside the timing.
@@ -310,6 +309,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
             peak: None,
         });
     }
+    rows.push(time_golden(true)?);
     drop(prepared);
     {
         let cfg = EngineConfig::default();
@@ -378,8 +378,10 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
 
     println!(
-        "postwarp bench: {cores} cores, {repeats} repeats per row; load average {load_before} before, {} after",
-        load()
+        "postwarp bench: {cores} cores, {repeats} repeats per row; load average {load_before} before, {} after; \
+         golden warps at vector level {}",
+        load(),
+        VectorLevel::detect().name()
     );
     println!(
         "| row | input | threads | best s | median s | M samples/s (best) | peak RSS MB | peak B per reference sample |"
@@ -390,5 +392,12 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     }
     let ratio = rows[1].times.best / rows[0].times.best;
     println!("golden/forward-splat throughput ratio: {ratio:.3} (best times, same frame, one thread)");
+    let baseline = rows[2].times.best;
+    println!(
+        "golden at the baseline level: {:.3} of the splat's throughput; the widest level ({}) takes {:.3} of its time",
+        rows[1].times.best / baseline,
+        VectorLevel::detect().name(),
+        rows[0].times.best / baseline
+    );
     Ok(())
 }

@@ -355,6 +355,7 @@ fn round_trip_band(b: &mut Band, w: usize, p: &AbufferParams, stats: &mut Abuffe
 
 /// Compress the derived frame's memory planes to fragments and expand them
 /// back. Cache-only planes are untouched (they are reset per warp).
+#[inline(always)]
 pub fn round_trip_dest(d: &mut DestPlanes, p: &AbufferParams, stats: &mut AbufferStats) {
     if p.abuffer_fragments == 0 {
         return;

@@ -39,6 +39,7 @@ use super::kernel_setup::same_surface;
 use super::planes::DestPlanes;
 use super::resolve::resolve;
 use super::transform::{Transformed, WarpContext, backward_neighbour};
+use super::vector_level::{VectorLevel, Work};
 use super::warp_aa;
 use bitvec::vec::BitVec;
 use glam::DVec2;
@@ -202,7 +203,7 @@ impl PreparedReference {
     }
 
     /// [`PreparedReference::inv_z`] of samples `i..i + out.len()`.
-    #[inline]
+    #[inline(always)]
     pub fn inv_z_into(&self, i: usize, out: &mut [f64]) {
         let (z, valid) = (&self.samples.z[i..i + out.len()], &self.samples.valid[i..i + out.len()]);
         for ((o, z), v) in out.iter_mut().zip(z).zip(valid.iter().by_vals()) {
@@ -306,24 +307,23 @@ impl Warper {
         for (j, warp) in cmd.warps.iter().enumerate() {
             let prepared = reference(j)?;
             let prepared = &*prepared;
-            let img = &prepared.samples;
             let ctx = WarpContext::new(warp.setup, warp.reference_camera, dst, centres.clone(), j, cfg.better_margin)
                 .with_fixed(fixed.clone());
             if let Some(s) = &mut st.saturations {
                 s.fetch += prepared.fetch_saturations;
             }
-            d.begin_warp();
-            match cfg.reconstruction {
-                Reconstruction::AaRect => {
-                    warp_aa::warp_reference(&ctx, prepared, j as u8, cfg, &mut d, &mut st, &mut self.scratch)
-                }
-                Reconstruction::General => general::warp_reference_general(&ctx, img, j as u8, cfg, &mut d, &mut st),
-            }
-            if cfg.hole_fill {
-                let hf = hole_fill(&mut d, &warp.setup.epipole_derived, &hole_fill_params(cfg));
-                add_hole_stats(&mut st, &hf);
-            }
-            round_trip_dest(&mut d, &abuffer_params(ss, cfg), &mut ab);
+            self.level.run(WarpStep {
+                ctx: &ctx,
+                prepared,
+                source: j as u8,
+                cfg,
+                epipole: &warp.setup.epipole_derived,
+                ss,
+                d: &mut d,
+                st: &mut st,
+                ab: &mut ab,
+                scratch: &mut self.scratch,
+            });
             if ss > 1 && cfg.abuffer_fragments > 0 {
                 // The A-buffer holds no mesh/splat bit (general path); at ss = 1
                 // each pixel is one fragment and the trip changes nothing.
@@ -352,6 +352,44 @@ impl Warper {
         }
         let (pixels, covered) = resolve(&d, ss);
         Ok(GoldenFrame { samples: d, pixels, covered, unseen, stats: st })
+    }
+}
+
+/// One reference's warp into the derived frame (rules 3–5), as a
+/// [`Work`] to run at the warper's [`VectorLevel`].
+struct WarpStep<'a> {
+    ctx: &'a WarpContext,
+    prepared: &'a PreparedReference,
+    /// Warp index (the samples' source).
+    source: u8,
+    cfg: &'a GoldenConfig,
+    /// The derived image's epipole (hole-fill order).
+    epipole: &'a Epipole,
+    /// Samples per pixel side.
+    ss: u32,
+    d: &'a mut DestPlanes,
+    st: &'a mut GoldenStats,
+    ab: &'a mut AbufferStats,
+    scratch: &'a mut warp_aa::Scratch,
+}
+
+impl Work for WarpStep<'_> {
+    type Output = ();
+
+    /// Warp, hole-fill and take the frame through the A-buffer.
+    #[inline(always)]
+    fn run(self) {
+        let WarpStep { ctx, prepared, source, cfg, epipole, ss, d, st, ab, scratch } = self;
+        d.begin_warp();
+        match cfg.reconstruction {
+            Reconstruction::AaRect => warp_aa::warp_reference(ctx, prepared, source, cfg, d, st, scratch),
+            Reconstruction::General => general::warp_reference_general(ctx, &prepared.samples, source, cfg, d, st),
+        }
+        if cfg.hole_fill {
+            let hf = hole_fill(d, epipole, &hole_fill_params(cfg));
+            add_hole_stats(st, &hf);
+        }
+        round_trip_dest(d, &abuffer_params(ss, cfg), ab);
     }
 }
 
@@ -412,11 +450,13 @@ pub struct Warper {
     keep: bool,
     /// Hand frames back with their memory planes only.
     trim: bool,
+    /// Instructions the warps run with (values never depend on it).
+    level: VectorLevel,
 }
 
 impl Default for Warper {
     fn default() -> Warper {
-        Warper { scratch: warp_aa::Scratch::default(), keep: true, trim: false }
+        Warper { scratch: warp_aa::Scratch::default(), keep: true, trim: false, level: VectorLevel::detect() }
     }
 }
 
@@ -443,6 +483,18 @@ impl Warper {
     /// untrimmed frame can take further warps. Values never depend on it.
     pub fn trim_frames(&mut self, on: bool) {
         self.trim = on;
+    }
+
+    /// Run the warps with the build's baseline instructions only, or (off,
+    /// the default) with the widest the host has ([`VectorLevel`]). Values
+    /// never depend on it; tests compare the two.
+    pub fn baseline_instructions(&mut self, on: bool) {
+        self.level = if on { VectorLevel::BASELINE } else { VectorLevel::detect() };
+    }
+
+    /// The instructions this warper's warps run with.
+    pub fn vector_level(&self) -> VectorLevel {
+        self.level
     }
 }
 

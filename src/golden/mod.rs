@@ -19,4 +19,5 @@ pub mod raster;
 pub mod resolve;
 pub mod transform;
 pub mod traversal;
+pub mod vector_level;
 mod warp_aa;

@@ -171,6 +171,7 @@ impl WarpContext {
 
     /// [`WarpContext::transform_batch`] in the fixed mode: `sat[k]` gets
     /// the saturations of sample `k` (module doc).
+    #[inline(always)]
     pub fn transform_batch_fixed(
         &self,
         x0: f64,
@@ -215,6 +216,7 @@ impl WarpContext {
     /// [`WarpContext::transform`] of the samples `(x0 + k, y)` with 1/Z
     /// `inv_z[k]`, `k < out.len() <= BATCH`: `out[k]` is `(x', y', 1/Z2, E)`,
     /// valid where `ok[k]`. Branch-free, so that the loop vectorises.
+    #[inline(always)]
     pub fn transform_batch(&self, x0: f64, y: f64, inv_z: &[f64], out: &mut [[f64; 4]], ok: &mut [bool]) {
         let n = out.len().min(BATCH);
         let (inv_z, ok) = (&inv_z[..n], &mut ok[..n]);
@@ -290,6 +292,7 @@ impl WarpContext {
 
     /// [`WarpContext::dest_slopes`] of the samples `s[k]`, `k < out.len() <=
     /// BATCH`, into `out[k]`. Branch-free, so that the loop vectorises.
+    #[inline(always)]
     pub fn dest_slopes_batch(&self, s: &SampleBatch, out: &mut [[f64; 2]]) {
         let n = out.len().min(BATCH);
         let (x, y, inv_z, sx, sy) = (&s.x[..n], &s.y[..n], &s.inv_z[..n], &s.sx[..n], &s.sy[..n]);
@@ -341,6 +344,7 @@ impl WarpContext {
     /// [`WarpContext::better_mask`] of the samples `s[k]`, `k < out.len() <=
     /// BATCH`, into `out[k]`: the per-sample part, then one centre at a time
     /// over the batch. Branch-free, so that the loops vectorise.
+    #[inline(always)]
     pub fn better_mask_batch(&self, s: &mut SampleBatch, out: &mut [u32]) {
         let n = out.len().min(BATCH);
         let out = &mut out[..n];

@@ -154,7 +154,9 @@ pub(super) struct Rows {
     groups: [GroupRow; 2],
 }
 
-/// Warp one reference into `d` (rules 2, 4 and 5).
+/// Warp one reference into `d` (rules 2, 4 and 5). Inlined, with its
+/// loops, into each [`super::vector_level::VectorLevel`]'s copy of the warp.
+#[inline(always)]
 pub(super) fn warp_reference(
     ctx: &WarpContext,
     prepared: &PreparedReference,
@@ -281,6 +283,7 @@ struct KernelSlopes {
 impl KernelSlopes {
     /// Slopes (and masks) of `kernels`, all of reference row `row`'s
     /// samples, whose columns start at `x0`.
+    #[inline(always)]
     fn row(
         &mut self,
         ctx: &WarpContext,
@@ -385,6 +388,7 @@ impl PhaseB<'_> {
 
 /// Phase 1 on row `y` of the region: warp its samples into `out`, counting
 /// the culled ones (a surface behind the derived camera or not finite).
+#[inline(always)]
 fn transform_row(
     ctx: &WarpContext,
     prepared: &PreparedReference,
@@ -436,6 +440,7 @@ fn transform_row(
 /// [`group`]'s rules and arithmetic, operation for operation, but
 /// branch-free over arrays (every test evaluated, the state selected), so
 /// that the loop vectorises.
+#[inline(always)]
 fn group_row(a: &WarpedRow, b: &WarpedRow, threshold: f64, out: &mut GroupRow) {
     let n = out.state.len();
     // `same_surface`'s limit is `threshold · |o| · 0.5 · (E_a + E_b)`, left to right.
@@ -518,6 +523,7 @@ impl PhaseA<'_> {
     /// Phase A on row `y`: every kernel of a live sample that reaches the
     /// derived image, in raster order, into `kernels` and the slots.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn row(
         &self,
         y: u32,
