@@ -52,6 +52,7 @@ mod props_kernel;
 mod props_raster;
 mod props_tile_cache;
 mod props_trace;
+mod props_vector_level;
 mod props_warp;
 mod report_docs;
 mod scene_materials;
