@@ -1,9 +1,9 @@
 //! Same trace and configuration, same output bytes, whatever the thread
-//! count or the host's vector instructions: `postwarp golden` and
-//! `postwarp simulate` run with RAYON_NUM_THREADS=1 and 4 (exr's own writer
-//! pool reads it too) write the same files, byte for byte, `report.json`
-//! apart from its host-time fields (`*_ms`); the golden model warps the
-//! same frames at the baseline and the widest vector level.
+//! count: `postwarp golden` and `postwarp simulate` run with
+//! RAYON_NUM_THREADS=1 and 4 (exr's own writer pool reads it too) write the
+//! same files, byte for byte, `report.json` apart from its host-time
+//! fields (`*_ms`). Whatever the host's vector instructions:
+//! `props_vector_level`.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -67,53 +67,4 @@ fn golden_bytes_do_not_depend_on_the_thread_count() {
 #[test]
 fn simulate_bytes_do_not_depend_on_the_thread_count() {
     same_outputs("simulate", "traces/room", &[]);
-}
-
-/// The golden model's frames do not depend on the host's vector
-/// instructions (`golden::vector_level`): a warper held to the build's
-/// baseline and one at the widest level the host has (AVX2 on most x86-64
-/// hosts) give the same planes, pixels and counters, bit for bit, on two
-/// bundled traces (a rendered one with several references, a real pair) in
-/// the float and fixed datapaths and with the general reconstruction.
-#[test]
-fn golden_frames_do_not_depend_on_the_vector_level() {
-    use postwarp::golden::config::{GoldenConfig, Reconstruction};
-    use postwarp::golden::frame::{Warper, prepare_reference};
-    use postwarp::run::hw_config::golden_config_for;
-    use postwarp::trace::Trace;
-    use postwarp_rtl::config::EngineConfig;
-
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("traces");
-    let (mut baseline, mut widest) = (Warper::new(), Warper::new());
-    baseline.baseline_instructions(true);
-    assert_eq!(baseline.vector_level().name(), "baseline");
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        assert_eq!(widest.vector_level().name(), "avx2", "an AVX2 host warps with AVX2");
-    }
-    let mut warped = 0;
-    for name in ["room", "motorcycle"] {
-        let t = Trace::open(&root.join(name)).unwrap();
-        let ss = t.display.supersample;
-        let fixed =
-            golden_config_for(&EngineConfig { supersample: ss, arith: "fixed".into(), ..EngineConfig::default() });
-        let general = GoldenConfig { reconstruction: Reconstruction::General, ..GoldenConfig::default() };
-        for (what, cfg) in [("float", GoldenConfig::default()), ("fixed", fixed), ("general", general)] {
-            let k = t.derived.len() - 1;
-            let refs: Vec<_> = t.derived[k]
-                .references
-                .iter()
-                .map(|&r| prepare_reference(&t.load_reference(r).unwrap().samples, ss, &cfg))
-                .collect();
-            let refs: Vec<_> = refs.iter().collect();
-            let cmd = t.frame_commands(k);
-            let (a, b) = (baseline.warp_frame(&cmd, &refs, &cfg), widest.warp_frame(&cmd, &refs, &cfg));
-            assert!(a.samples == b.samples, "{name} {what}: sample planes differ between the vector levels");
-            assert_eq!((&a.pixels, &a.covered, &a.unseen), (&b.pixels, &b.covered, &b.unseen), "{name} {what}");
-            assert_eq!(a.stats, b.stats, "{name} {what}: counters");
-            assert!(a.stats.reference_samples > 0 && a.covered.count_ones() > 0, "{name} {what}: something warped");
-            warped += 1;
-        }
-    }
-    assert_eq!(warped, 6);
 }
