@@ -108,6 +108,7 @@ pub fn block_depth_of(img: &SampleImage, inv_z: impl Fn(usize) -> f64) -> BlockD
 
 /// Decide which blocks of a reference with block depths `depth` can reach a
 /// `dw x dh` derived image.
+#[inline(always)] // into each vector level's warp (`vector_level`)
 pub fn live_blocks(ctx: &WarpContext, depth: &BlockDepth, dw: u32, dh: u32) -> LiveBlocks {
     let BlockDepth { width: w, height: h, bw, bh, lo, hi } = depth;
     let (w, h, bw, bh) = (*w, *h, *bw, *bh);

@@ -109,6 +109,7 @@ impl DestPlanes {
     /// Reset the cache-only planes 6–8 for a new reference warp: real
     /// samples are true surfaces (distance 0, fill colour = colour); others
     /// have no fill colour yet.
+    #[inline(always)] // into each vector level's warp (`vector_level`)
     pub fn begin_warp(&mut self) {
         self.fill_valid.copy_from_bitslice(&self.real);
         self.fill_distance.fill(0);

@@ -2,20 +2,27 @@
 //!
 //! The build targets x86-64-v2 (`.cargo/config.toml`): SSE4.2, two f64
 //! lanes, on every x86-64 CPU since about 2009. Where the host also has
-//! AVX2 (four lanes; most CPUs since 2013), each warp's work — transform,
-//! group tests, phases A and B, kernel slopes and masks, hole fill and the
-//! A-buffer trip (`frame.rs`) — runs a second copy of the same code
-//! compiled for it, chosen at run time. The golden frame takes about 10 %
-//! less time (`docs/performance.md`); the forward splat gains nothing from
-//! it (measured with the whole crate built for x86-64-v3), so it keeps one
-//! copy.
+//! AVX2 (four lanes; most CPUs since 2013), each warp's work runs a second
+//! copy of the same code compiled for it, chosen at run time: `WarpStep`
+//! in `frame.rs` and what it inlines — culling, the anti-aliased path's
+//! transform, group tests, phases A and B, kernel slopes and masks, the
+//! plane resets and the A-buffer trip. Out of line, at the baseline at
+//! every level: hole fill (inlined too, the frame took 2 % longer), the
+//! general reconstruction's warp, the fixed mode's per-sample rounding
+//! (`fixed_transform`, `fix_group_row`), the exact edge corners (a few per
+//! cent of samples), and after the warps the fallback pass and resolve. The golden frame takes about
+//! 10 % less time (`docs/performance.md`); the forward splat and the
+//! hardware model gain nothing from AVX2 (measured with the whole crate
+//! built for x86-64-v3), so they keep one copy. A build for a wider
+//! `target-cpu` (`native`, x86-64-v3) has AVX2 in its baseline already, and
+//! both copies are then the same.
 //!
 //! Values never depend on the level: both copies are the same IEEE-754
 //! binary64 operations in the same order. Fused multiply-add is not
 //! enabled (and Rust never contracts `a * b + c` on its own), and rounding,
-//! square root and conversions are exact in both. The test
-//! `golden_vector_levels_give_identical_frames` compares every plane and
-//! counter of frames warped at both levels.
+//! square root and conversions are exact in both. `tests/props_vector_level.rs`
+//! compares every plane, pixel (bit for bit) and counter of frames warped
+//! at both levels.
 
 /// Instruction level of a [`crate::golden::frame::Warper`]'s warps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,12 +73,6 @@ impl VectorLevel {
             #[cfg(target_arch = "x86_64")]
             Level::Avx2 => unsafe { with_avx2(w) },
         }
-    }
-}
-
-impl Default for VectorLevel {
-    fn default() -> VectorLevel {
-        VectorLevel::detect()
     }
 }
 
