@@ -1,4 +1,6 @@
-//! Speed of the golden model against the plain forward splat, on one core.
+//! Speed of the golden model against the plain forward splat, on one core,
+//! the golden model at the host's widest vector level (`golden::vector_level`;
+//! `postwarp bench` also times it at the baseline).
 //!
 //! Input: the standard frame of `postwarp::bench` (`room` at 640x480 with
 //! 2x2 samples, derived frame 3 and its references 0 and 1, 2140x1496
