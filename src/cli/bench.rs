@@ -275,6 +275,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     let prepared: Vec<PreparedReference> =
         frame.refs.iter().map(|img| prepare_reference(img, frame.spec.supersample, &gcfg)).collect();
     let valid: u64 = prepared.iter().map(|p| p.samples.valid.count_ones() as u64).sum();
+    // The level `engine golden` runs at (`Warper::new` detects the same).
+    let level = VectorLevel::detect();
     let time_golden = |baseline: bool| -> anyhow::Result<Row> {
         let refs: Vec<&PreparedReference> = prepared.iter().collect();
         let mut warper = Warper::new();
@@ -381,7 +383,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         "postwarp bench: {cores} cores, {repeats} repeats per row; load average {load_before} before, {} after; \
          golden warps at vector level {}",
         load(),
-        VectorLevel::detect().name()
+        level.name()
     );
     println!(
         "| row | input | threads | best s | median s | M samples/s (best) | peak RSS MB | peak B per reference sample |"
@@ -396,7 +398,7 @@ pub fn run(a: Args) -> anyhow::Result<()> {
     println!(
         "golden at the baseline level: {:.3} of the splat's throughput; the widest level ({}) takes {:.3} of its time",
         rows[1].times.best / baseline,
-        VectorLevel::detect().name(),
+        level.name(),
         rows[0].times.best / baseline
     );
     Ok(())
