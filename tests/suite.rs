@@ -20,6 +20,7 @@ mod golden_cli;
 mod golden_general;
 mod golden_rules;
 mod hw_abuffer;
+mod hw_display_guard;
 mod hw_engine;
 mod hw_fallback;
 mod hw_fill_on_eviction;

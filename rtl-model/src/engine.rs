@@ -93,7 +93,7 @@ use crate::units::resolve::resolve;
 use crate::units::tile_manager::TileManager;
 use crate::units::tile_prefetch::{Fronts, TilePrefetch};
 use crate::units::transform::{TransformStage, TransformUnit};
-use crate::units::{Activity, UnitCycles as Cycles, UnitState, display};
+use crate::units::{Activity, StallReason, Tick, UnitCycles as Cycles, UnitState, display};
 use crate::warp_plan::WarpPlan;
 pub use crate::warp_plan::held_bands;
 use crate::watchdog::{self, Watchdog};
@@ -466,12 +466,18 @@ impl Machine<'_> {
     fn display_read(&mut self) {
         display::queue_frame_read(&mut self.port, &self.cache);
         let mut none = DestFrame::new(0, 0);
+        // A read issued or arrived is the display's progress (`watchdog`
+        // rule 1): a memory that stops answering is reported, not waited
+        // for.
+        let mut guard = Watchdog::new(["display"], self.now, watchdog::limit_for(self.cfg));
         loop {
             let arrived = self.deliver(&mut none, None);
             let issued = self.port.issue(&mut self.dram, self.now);
             if self.port.is_empty() && self.dram.outstanding() == 0 {
                 break;
             }
+            guard.note(0, self.now, if arrived || issued { Tick::BUSY } else { Tick::stall(StallReason::Dram) });
+            guard.check(self.now, || self.stuck_details());
             let next = self.memory_event(self.now);
             let before = self.now;
             let span = self.advance(arrived || issued, next);

@@ -3,6 +3,11 @@
 //! move but no unit does its work, or a deadlock) stops the run with a
 //! message naming each unit's state, instead of hanging.
 //!
+//! Every clock loop of the engine has one: the warps', the fallback
+//! pass's and the final display read's (whose one "unit", `display`, is
+//! busy in a cycle a read is issued or arrives: a DRAM backend that stops
+//! answering is reported, not waited for).
+//!
 //! Rules:
 //! 1. The engine reports every unit's tick of every cycle ([`Watchdog::note`]);
 //!    a tick in state busy is progress.
