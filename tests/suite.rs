@@ -27,6 +27,7 @@ mod hw_fill_on_eviction;
 mod hw_look_ahead;
 mod hw_model;
 mod hw_skip_exact;
+mod hw_source_cache;
 mod hw_stats_snapshot;
 mod hw_tiny_displays;
 mod hw_traversal_hole_fill;

@@ -243,6 +243,22 @@ pub fn tile_bytes(c: &EngineConfig) -> u64 {
     u64::from(c.tile_size).pow(2) * CACHE_BYTES_PER_SAMPLE
 }
 
+/// Bytes of the largest reference block the source cache may have to hold
+/// (`units::fetch` rule 1): `(tile_size / supersample)²` pixels, each at
+/// its largest packed size, a header and `min(abuffer_fragments,
+/// supersample²)` fragments (a fragment covers at least one sample), or
+/// `supersample²` raw samples when `abuffer_fragments` is 0.
+pub fn largest_block_bytes(c: &EngineConfig) -> u64 {
+    use crate::units::abuffer::{FRAGMENT_BYTES, PIXEL_HEADER_BYTES, RAW_SAMPLE_BYTES};
+    let ss2 = u64::from(c.supersample).pow(2);
+    let pixels = u64::from(c.tile_size / c.supersample.max(1)).pow(2);
+    if c.abuffer_fragments == 0 {
+        pixels * ss2 * RAW_SAMPLE_BYTES
+    } else {
+        pixels * (PIXEL_HEADER_BYTES + u64::from(c.abuffer_fragments).min(ss2) * FRAGMENT_BYTES)
+    }
+}
+
 /// The rules between knobs, checked after every knob's own range, in
 /// order. (That `tile_size` is a multiple of the trace's `supersample` is
 /// checked by `Engine::new`, once the trace's super-sampling applies.)
@@ -277,6 +293,24 @@ pub const CROSS_RULES: &[CrossRule<EngineConfig>] = &[
                     "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): the compositor's oldest stamp keeps up to 4 reserved while the other units share the rest",
                     c.dest_cache_bytes,
                     8 * tile_bytes(c)
+                ));
+            }
+            Ok(())
+        },
+    },
+    CrossRule {
+        name: "one_block_cached",
+        rule: "`source_cache_bytes` holds the largest reference block: (`tile_size` / `supersample`)² pixels of a \
+               1-byte header and min(`abuffer_fragments`, `supersample`²) fragments of 16 B each (raw: `tile_size`² \
+               × 16 B), so that the fetch unit always has the block it streams from on chip",
+        check: |c| {
+            let need = largest_block_bytes(c);
+            if c.source_cache_bytes < need {
+                return Err(format!(
+                    "source_cache_bytes = {}: expected at least the largest reference block ({need} bytes: \
+                     (tile_size / supersample)² pixels at their largest packed size), so that the fetch unit \
+                     always has the block it streams from on chip",
+                    c.source_cache_bytes
                 ));
             }
             Ok(())
@@ -477,6 +511,27 @@ mod tests {
         // Field count check: Debug prints one `name: value` per field.
         let fields = format!("{:?}", EngineConfig::default()).matches(": ").count();
         assert_eq!(fields, KNOBS.len());
+    }
+
+    #[test]
+    fn the_source_cache_holds_the_largest_block_and_no_byte_less_is_accepted() {
+        use crate::units::abuffer::{FRAGMENT_BYTES, PIXEL_HEADER_BYTES, RAW_SAMPLE_BYTES};
+        let default = EngineConfig::default();
+        // 8-sample tiles at 2x2: 4x4-pixel blocks of up to 4 fragments (limit 4 = ss²).
+        let frags = u64::from(default.abuffer_fragments).min(4);
+        assert_eq!(largest_block_bytes(&default), 16 * (PIXEL_HEADER_BYTES + frags * FRAGMENT_BYTES));
+        let raw = EngineConfig { abuffer_fragments: 0, tile_size: 16, supersample: 1, ..default.clone() };
+        assert_eq!(largest_block_bytes(&raw), 256 * RAW_SAMPLE_BYTES);
+        // More fragments allowed than samples in a pixel: one per sample at most.
+        let wide = EngineConfig { abuffer_fragments: 16, supersample: 1, ..default.clone() };
+        assert_eq!(largest_block_bytes(&wide), 64 * (PIXEL_HEADER_BYTES + FRAGMENT_BYTES));
+        for c in [default, raw, wide] {
+            let need = largest_block_bytes(&c);
+            assert_eq!(EngineConfig { source_cache_bytes: need, ..c.clone() }.validate(), Ok(()));
+            let e = EngineConfig { source_cache_bytes: need - 1, ..c }.validate().unwrap_err();
+            assert!(e.starts_with(&format!("source_cache_bytes = {}: expected at least", need - 1)), "{e}");
+            assert!(e.contains(&format!("({need} bytes")), "{e}");
+        }
     }
 
     #[test]

@@ -19,7 +19,10 @@
 //!    the start of the block's slot in the reference's region of the
 //!    memory map (`mem::layout`).
 //! 2. The source cache holds whole blocks, up to `source_cache_bytes` of
-//!    their actual (packed) size, replacing the least recently used.
+//!    their actual (packed) size, replacing the least recently used. It
+//!    holds at least the largest block a reference can pack to
+//!    ([`crate::config::largest_block_bytes`]; a smaller cache is refused
+//!    by the configuration's cross rule `one_block_cached`).
 //! 3. Prefetch: when the fetch unit starts an interval it queues the reads
 //!    of every block of that interval and of the next one that is neither
 //!    on chip nor on its way ("software-managed": the schedule is known).
@@ -189,6 +192,7 @@ impl SourceCache {
     pub fn arrived(&mut self, b: u32, now: Cycle) {
         let now = now.get();
         let need = self.bytes[b as usize];
+        debug_assert!(need <= self.capacity, "block {b} of {need} bytes in a cache of {}", self.capacity);
         while self.used + need > self.capacity
             && let Some(v) = self.lru.victim(|_| true)
         {
