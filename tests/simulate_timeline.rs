@@ -94,6 +94,13 @@ fn every_frame_has_a_timeline_whose_unit_intervals_tile_the_frame_and_match_the_
                 "frame {k}: occupancy of {q}"
             );
         }
+        // Each track names its capacity; the memory port's queues, which
+        // the model does not bound, say so instead of a capacity of 0.
+        let tracks: std::collections::BTreeSet<&str> =
+            ev.iter().filter(|e| e["ph"] == "C" && e["pid"] == 3).filter_map(|e| e["name"].as_str()).collect();
+        assert!(tracks.contains("memory port queues (requests, unbounded)"), "frame {k}: {tracks:?}");
+        assert!(tracks.contains("destination cache (tiles, capacity 1024)"), "frame {k}: {tracks:?}");
+        assert!(tracks.iter().all(|t| !t.contains("capacity 0")), "frame {k}: {tracks:?}");
         // The DRAM was busy: some request was in flight at some point.
         let flight: f64 = ev
             .iter()

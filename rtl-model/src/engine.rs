@@ -378,11 +378,12 @@ fn occupancy_series(cfg: &EngineConfig) -> Vec<Occupancy> {
     let tile_bytes = crate::config::tile_bytes(cfg);
     let pipe = cfg.transform_throughput as u64 * (cfg.transform_latency as u64 + 1);
     vec![
-        Occupancy::new("transform pipeline", "samples", pipe),
-        Occupancy::new("kernel FIFO", "kernels", 2 * cfg.rects_per_cycle as u64),
-        Occupancy::new("stamp FIFO", "stamps", 2 * cfg.rects_per_cycle as u64),
-        Occupancy::new("memory port queues", "requests", 0),
-        Occupancy::new("destination cache", "tiles", cfg.dest_cache_bytes / tile_bytes),
+        Occupancy::new("transform pipeline", "samples", Some(pipe)),
+        Occupancy::new("kernel FIFO", "kernels", Some(2 * cfg.rects_per_cycle as u64)),
+        Occupancy::new("stamp FIFO", "stamps", Some(2 * cfg.rects_per_cycle as u64)),
+        // Not bounded in the model (`mem::port`, "Not modelled").
+        Occupancy::new("memory port queues", "requests", None),
+        Occupancy::new("destination cache", "tiles", Some(cfg.dest_cache_bytes / tile_bytes)),
     ]
 }
 

@@ -50,8 +50,9 @@ pub struct Occupancy {
     pub name: &'static str,
     /// Unit of the values (e.g. `kernels`, `tiles`).
     pub unit: &'static str,
-    /// Capacity (same unit), for the reader's scale.
-    pub capacity: u64,
+    /// Capacity (same unit), for the reader's scale; `None` for a queue
+    /// the model does not bound (the memory port's, `mem::port`).
+    pub capacity: Option<u64>,
     /// Per window: occupancy summed over its cycles (unit-cycles).
     pub sum: Vec<u64>,
     /// Per window: largest occupancy.
@@ -60,7 +61,7 @@ pub struct Occupancy {
 
 impl Occupancy {
     /// An empty series.
-    pub fn new(name: &'static str, unit: &'static str, capacity: u64) -> Occupancy {
+    pub fn new(name: &'static str, unit: &'static str, capacity: Option<u64>) -> Occupancy {
         Occupancy { name, unit, capacity, sum: Vec::new(), max: Vec::new() }
     }
 
@@ -134,7 +135,7 @@ mod tests {
 
     #[test]
     fn occupancy_spreads_a_span_over_its_windows() {
-        let mut o = Occupancy::new("q", "items", 4);
+        let mut o = Occupancy::new("q", "items", Some(4));
         o.add(Cycle(60), 10, 3); // 4 cycles in window 0, 6 in window 1
         o.add(Cycle(70), 1, 1);
         assert_eq!(o.sum, vec![12, 19]);

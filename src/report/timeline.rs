@@ -134,7 +134,10 @@ pub fn chrome_trace(t: &Timeline, meta: &TimelineMeta<'_>) -> Vec<u8> {
                 (milli(sum as f64 / window_len(w, win, t.cycles) as f64), max)
             })
             .collect();
-        let label = format!("{} ({}, capacity {})", o.name, o.unit, o.capacity);
+        let label = match o.capacity {
+            Some(c) => format!("{} ({}, capacity {c})", o.name, o.unit),
+            None => format!("{} ({}, unbounded)", o.name, o.unit),
+        };
         counter(&mut ev, 3, &label, win, &us, &series, |(mean, max)| json!({"mean": mean, "max": max}));
     }
     let doc = json!({
