@@ -114,7 +114,7 @@ fn draw<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawR
             )),
         ))
         .map_err(e)?;
-    let (plot, legend) = body.split_horizontally(WIDTH - LEGEND_WIDTH);
+    let (plot, legend) = body.split_horizontally(WIDTH - legend_width(root, s)?);
     let all: Vec<(f64, f64)> = s.series.iter().flat_map(|x| x.points.iter().copied()).collect();
     let costs = || all.iter().map(|p| p.0).filter(|c| c.is_finite());
     let lo = costs().fold(f64::INFINITY, f64::min);
@@ -241,8 +241,25 @@ fn label_place(
         .unwrap_or(places[0])
 }
 
+/// The legend's width: [`LEGEND_WIDTH`], or wider for a long series name
+/// (up to half the chart), so that no name is cut at the chart's edge.
+fn legend_width<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawResult<u32> {
+    let style = (FAMILY, LEGEND_FONT).into_font().color(&BLACK);
+    let mut widest = 0;
+    for ser in &s.series {
+        widest = widest.max(root.estimate_text_size(&ser.name, &style).map_err(e)?.0);
+    }
+    // The marker column (x0 + 24) before the name, a margin after it.
+    Ok((widest + LEGEND_TEXT_X + 12).clamp(LEGEND_WIDTH, WIDTH / 2))
+}
+
+/// Legend text size (points) and where a name starts (pixels from the
+/// legend's left edge).
+const LEGEND_FONT: u32 = 14;
+const LEGEND_TEXT_X: u32 = 14 + 24;
+
 fn draw_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, s: &Scatter) -> DrawResult<()> {
-    let style = (FAMILY, 14).into_font().color(&BLACK);
+    let style = (FAMILY, LEGEND_FONT).into_font().color(&BLACK);
     let (x0, mut y) = (14, 24);
     for ser in &s.series {
         let (colour, shape) = series_style(ser.style);
@@ -358,5 +375,32 @@ mod tests {
         assert_eq!(png, render_png(&s).unwrap());
         let img = image::load_from_memory(&png).unwrap();
         assert_eq!((img.width(), img.height()), (WIDTH, HEIGHT));
+    }
+
+    /// Where the SVG draws text `t`: its x.
+    fn text_x(svg: &str, t: &str) -> i32 {
+        let end = svg.find(&format!(">\n{t}\n<")).unwrap_or_else(|| panic!("{t} not drawn"));
+        let open = &svg[svg[..end].rfind("<text").unwrap()..end];
+        let x = &open[open.find(" x=\"").unwrap() + 4..];
+        x[..x.find('"').unwrap()].parse().unwrap()
+    }
+
+    #[test]
+    fn a_long_series_name_widens_the_legend_and_stays_inside_the_chart() {
+        let long = "schollmeyer-transparent + low-pass";
+        let mut s = sample();
+        let svg = render_svg(&s).unwrap();
+        let short_x = text_x(&svg, "a");
+        s.series[1].name = long.into();
+        let svg = render_svg(&s).unwrap();
+        let x = text_x(&svg, long);
+        let mut out = String::new();
+        let root = SVGBackend::with_string(&mut out, (WIDTH, HEIGHT)).into_drawing_area();
+        font::register().unwrap();
+        let w = root.estimate_text_size(long, &(FAMILY, LEGEND_FONT).into_font().color(&BLACK)).unwrap().0 as i32;
+        assert!(w > (LEGEND_WIDTH - LEGEND_TEXT_X) as i32, "the name ({w} px) is longer than the default legend holds");
+        assert!(x + w <= WIDTH as i32, "the name ends at {} of {WIDTH}", x + w);
+        assert!(x < short_x, "the legend moved left to make room: {x} against {short_x}");
+        assert_eq!(text_x(&svg, "a"), x, "every name starts in the same column");
     }
 }
