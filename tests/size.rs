@@ -117,6 +117,11 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no configuration meets the floor") && err.contains("best mean luma PSNR"), "{err}");
+    // The files line lists what was written: no config.toml without a configuration.
+    let text = String::from_utf8_lossy(&o.stdout);
+    let files = text.lines().find(|l| l.starts_with("files: ")).unwrap_or_else(|| panic!("{text}"));
+    assert!(!first.join("config.toml").exists() && !files.contains("config.toml"), "{files}");
+    assert!(files.contains("size.json") && files.contains("candidates.csv"), "{files}");
     let (head, rows) = table(&first);
     let (psnr, ss, frags) = (col(&head, "psnr_luma_db"), col(&head, "supersample"), col(&head, "abuffer_fragments"));
     let order: Vec<(u32, u32)> = rows.iter().map(|r| (r[ss].parse().unwrap(), r[frags].parse().unwrap())).collect();
@@ -133,6 +138,7 @@ fn smallest_configuration_meets_the_floor_and_one_step_smaller_does_not() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}{text}", String::from_utf8_lossy(&o.stderr));
     assert!(text.contains("smallest configuration") && text.contains("dest_cache_bytes = "), "{text}");
+    assert!(text.lines().any(|l| l.starts_with("files: ") && l.contains("config.toml")), "{text}");
     // The configuration is loadable by `simulate --config`, and says what
     // its quality figure was scored against.
     let toml = std::fs::read_to_string(out.join("config.toml")).unwrap();

@@ -87,10 +87,9 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         }
         let dir = d.commit()?;
         print!("{}", output::text(&r));
-        println!(
-            "files: {}",
-            ["config.toml", "size.json", "candidates.csv"].map(|f| dir.join(f).display().to_string()).join(", ")
-        );
+        // config.toml only when a configuration was found (`write_files`).
+        let files = ["config.toml", "size.json", "candidates.csv"].into_iter().filter(|f| dir.join(f).is_file());
+        println!("files: {}", files.map(|f| dir.join(f).display().to_string()).collect::<Vec<_>>().join(", "));
     } else {
         print!("{}", output::text(&r));
     }
