@@ -91,9 +91,16 @@ fn a_memory_that_stops_answering_during_the_display_read_is_reported_not_waited_
     assert_eq!(got.stats.cycles, want.stats.cycles);
     assert_eq!(got.pixels, want.pixels);
 
-    // Deaf from the display's first read: the guard stops the run.
-    let r = std::panic::catch_unwind(move || run(&mut deaf_from(&cfg, first), &img, &cmd, &cfg));
-    let msg = *r.expect_err("the display read never ends").downcast::<String>().expect("a message");
+    // Deaf from the display's first read: the guard stops the run (in
+    // well under a second). On a thread, so that a run that waits for ever
+    // fails this test after a minute instead of hanging the suite.
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let r = std::panic::catch_unwind(move || run(&mut deaf_from(&cfg, first), &img, &cmd, &cfg).stats.cycles);
+        tx.send(r.map_err(|p| p.downcast::<String>().map(|m| *m).unwrap_or_default())).ok();
+    });
+    let r = rx.recv_timeout(std::time::Duration::from_secs(60)).expect("the display read waited for ever");
+    let msg = r.expect_err("the display read never ends, yet the run finished");
     assert!(msg.contains("internal error in the cycle model: no unit made progress"), "{msg}");
     assert!(msg.contains("display Stall(Dram)"), "{msg}");
 }

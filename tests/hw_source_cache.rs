@@ -1,9 +1,10 @@
-//! The source cache's smallest size (`docs/units.md`, cross rule
-//! `one_block_cached`): the largest block a reference can pack to
+//! The source cache's smallest size (`docs/units.md`, fetch rule 2): the
+//! largest block a reference can pack to
 //! (`postwarp_rtl::config::largest_block_bytes`). A reference whose every
 //! sample is a surface of its own reaches it exactly; no block of the
-//! bundled traces' references exceeds it; a cache one byte smaller is
-//! refused with a message naming the knob.
+//! bundled traces' references exceeds it; `Engine::new` refuses a cache
+//! one byte smaller, at the trace's super-sampling, with a message naming
+//! the knob and what the bound was computed from.
 
 use postwarp::trace::Trace;
 use postwarp_rtl::SampleImage;
@@ -61,6 +62,10 @@ fn a_reference_of_separate_samples_packs_a_block_to_the_bound_exactly() {
             let short = EngineConfig { source_cache_bytes: largest_block_bytes(&cfg) - 1, ..cfg.clone() };
             let e = Engine::new(short).err().unwrap_or_else(|| panic!("{what}: accepted"));
             assert!(e.starts_with("source_cache_bytes = "), "{what}: {e}");
+            assert!(
+                e.contains(&format!("supersample {ss}")) && e.contains(&format!("tile_size {}", cfg.tile_size)),
+                "{e}"
+            );
             assert!(Engine::new(EngineConfig { source_cache_bytes: largest_block_bytes(&cfg), ..cfg }).is_ok());
         }
     }

@@ -99,7 +99,9 @@ fn every_frame_has_a_timeline_whose_unit_intervals_tile_the_frame_and_match_the_
         let tracks: std::collections::BTreeSet<&str> =
             ev.iter().filter(|e| e["ph"] == "C" && e["pid"] == 3).filter_map(|e| e["name"].as_str()).collect();
         assert!(tracks.contains("memory port queues (requests, unbounded)"), "frame {k}: {tracks:?}");
-        assert!(tracks.contains("destination cache (tiles, capacity 1024)"), "frame {k}: {tracks:?}");
+        let c = &report["config"];
+        let tiles = c["dest_cache_bytes"].as_u64().unwrap() / (c["tile_size"].as_u64().unwrap().pow(2) * 16);
+        assert!(tracks.contains(format!("destination cache (tiles, capacity {tiles})").as_str()), "{tracks:?}");
         assert!(tracks.iter().all(|t| !t.contains("capacity 0")), "frame {k}: {tracks:?}");
         // The DRAM was busy: some request was in flight at some point.
         let flight: f64 = ev

@@ -244,19 +244,15 @@ pub fn tile_bytes(c: &EngineConfig) -> u64 {
 }
 
 /// Bytes of the largest reference block the source cache may have to hold
-/// (`units::fetch` rule 1): `(tile_size / supersample)²` pixels, each at
-/// its largest packed size, a header and `min(abuffer_fragments,
-/// supersample²)` fragments (a fragment covers at least one sample), or
-/// `supersample²` raw samples when `abuffer_fragments` is 0.
+/// (`units::fetch` rule 1): `(tile_size / supersample)²` pixels at their
+/// largest packed size ([`crate::mem::layout::max_packed_bytes`]: a header
+/// and `min(abuffer_fragments, supersample²)` fragments each, or raw
+/// samples). Meaningful when `tile_size` is a multiple of `supersample`,
+/// which `Engine::new` checks first; it also refuses a source cache smaller
+/// than this (at the trace's super-sampling).
 pub fn largest_block_bytes(c: &EngineConfig) -> u64 {
-    use crate::units::abuffer::{FRAGMENT_BYTES, PIXEL_HEADER_BYTES, RAW_SAMPLE_BYTES};
-    let ss2 = u64::from(c.supersample).pow(2);
-    let pixels = u64::from(c.tile_size / c.supersample.max(1)).pow(2);
-    if c.abuffer_fragments == 0 {
-        pixels * ss2 * RAW_SAMPLE_BYTES
-    } else {
-        pixels * (PIXEL_HEADER_BYTES + u64::from(c.abuffer_fragments).min(ss2) * FRAGMENT_BYTES)
-    }
+    let side = u64::from(c.tile_size / c.supersample.max(1));
+    crate::mem::layout::max_packed_bytes(c, side * side)
 }
 
 /// The rules between knobs, checked after every knob's own range, in
@@ -293,24 +289,6 @@ pub const CROSS_RULES: &[CrossRule<EngineConfig>] = &[
                     "dest_cache_bytes = {}: expected at least 8 tiles ({} bytes): the compositor's oldest stamp keeps up to 4 reserved while the other units share the rest",
                     c.dest_cache_bytes,
                     8 * tile_bytes(c)
-                ));
-            }
-            Ok(())
-        },
-    },
-    CrossRule {
-        name: "one_block_cached",
-        rule: "`source_cache_bytes` holds the largest reference block: (`tile_size` / `supersample`)² pixels of a \
-               1-byte header and min(`abuffer_fragments`, `supersample`²) fragments of 16 B each (raw: `tile_size`² \
-               × 16 B), so that the fetch unit always has the block it streams from on chip",
-        check: |c| {
-            let need = largest_block_bytes(c);
-            if c.source_cache_bytes < need {
-                return Err(format!(
-                    "source_cache_bytes = {}: expected at least the largest reference block ({need} bytes: \
-                     (tile_size / supersample)² pixels at their largest packed size), so that the fetch unit \
-                     always has the block it streams from on chip",
-                    c.source_cache_bytes
                 ));
             }
             Ok(())
@@ -514,24 +492,17 @@ mod tests {
     }
 
     #[test]
-    fn the_source_cache_holds_the_largest_block_and_no_byte_less_is_accepted() {
+    fn the_largest_block_is_its_pixels_at_their_largest_packed_size() {
         use crate::units::abuffer::{FRAGMENT_BYTES, PIXEL_HEADER_BYTES, RAW_SAMPLE_BYTES};
+        // 8-sample tiles at 2x2: 4x4-pixel blocks of min(3, 4) fragments.
         let default = EngineConfig::default();
-        // 8-sample tiles at 2x2: 4x4-pixel blocks of up to 4 fragments (limit 4 = ss²).
-        let frags = u64::from(default.abuffer_fragments).min(4);
-        assert_eq!(largest_block_bytes(&default), 16 * (PIXEL_HEADER_BYTES + frags * FRAGMENT_BYTES));
+        assert_eq!((default.tile_size, default.supersample, default.abuffer_fragments), (8, 2, 3));
+        assert_eq!(largest_block_bytes(&default), 16 * (PIXEL_HEADER_BYTES + 3 * FRAGMENT_BYTES));
         let raw = EngineConfig { abuffer_fragments: 0, tile_size: 16, supersample: 1, ..default.clone() };
         assert_eq!(largest_block_bytes(&raw), 256 * RAW_SAMPLE_BYTES);
         // More fragments allowed than samples in a pixel: one per sample at most.
-        let wide = EngineConfig { abuffer_fragments: 16, supersample: 1, ..default.clone() };
+        let wide = EngineConfig { abuffer_fragments: 16, supersample: 1, ..default };
         assert_eq!(largest_block_bytes(&wide), 64 * (PIXEL_HEADER_BYTES + FRAGMENT_BYTES));
-        for c in [default, raw, wide] {
-            let need = largest_block_bytes(&c);
-            assert_eq!(EngineConfig { source_cache_bytes: need, ..c.clone() }.validate(), Ok(()));
-            let e = EngineConfig { source_cache_bytes: need - 1, ..c }.validate().unwrap_err();
-            assert!(e.starts_with(&format!("source_cache_bytes = {}: expected at least", need - 1)), "{e}");
-            assert!(e.contains(&format!("({need} bytes")), "{e}");
-        }
     }
 
     #[test]

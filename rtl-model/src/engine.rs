@@ -175,6 +175,17 @@ impl Engine {
                 cfg.tile_size, cfg.supersample
             ));
         }
+        // Checked here, as the tile size above, because the trace's
+        // super-sampling decides the blocks (`units::fetch` rule 2).
+        let block = crate::config::largest_block_bytes(&cfg);
+        if cfg.source_cache_bytes < block {
+            return Err(format!(
+                "source_cache_bytes = {}: expected at least the largest reference block, {block} bytes \
+                 ((tile_size {} / supersample {})² pixels of a header and min(abuffer_fragments {}, supersample²) \
+                 fragments), so that the block the fetch unit streams from fits on chip",
+                cfg.source_cache_bytes, cfg.tile_size, cfg.supersample, cfg.abuffer_fragments
+            ));
+        }
         let fixed = cfg.fixed_formats()?;
         Ok(Engine {
             cfg,

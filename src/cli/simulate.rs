@@ -36,8 +36,9 @@ pub struct Args {
     pub dump_config: Option<PathBuf>,
     /// Print the SRAM and arithmetic budget of the configuration (--config /
     /// --preset) alone: its display and a reference 1.6725 times as wide
-    /// (docs/budget.md). Without a trace, nothing runs; with one, the
-    /// summary and report.json carry the budget sized for the trace.
+    /// (docs/budget.md), before anything runs. Without a trace, nothing
+    /// runs; every run with a trace (flag or not) carries the budget sized
+    /// for the trace in its summary and report.json.
     #[arg(long)]
     pub budget: bool,
     /// Also write timeline-NNNN.json per frame: the frame's pipeline in the

@@ -19,8 +19,8 @@
 //! 3. Every request carries a [`Tag`] that comes back on its completion.
 //!
 //! Not modelled: the queues' capacity (the packer limits the write queue
-//! itself), request merging, address generation (requests carry sizes, not
-//! addresses).
+//! itself), request merging, address generation (requests carry the
+//! addresses of the memory map, `mem::layout`, computed by their units).
 
 use super::dram::{Access, Client, Dram};
 use crate::clock::Cycle;

@@ -21,8 +21,9 @@
 //! 2. The source cache holds whole blocks, up to `source_cache_bytes` of
 //!    their actual (packed) size, replacing the least recently used. It
 //!    holds at least the largest block a reference can pack to
-//!    ([`crate::config::largest_block_bytes`]; a smaller cache is refused
-//!    by the configuration's cross rule `one_block_cached`).
+//!    ([`crate::config::largest_block_bytes`]; `Engine::new` refuses a
+//!    smaller cache), so the block being streamed from fits; an arriving
+//!    block may still evict it (LRU), and it is then read again.
 //! 3. Prefetch: when the fetch unit starts an interval it queues the reads
 //!    of every block of that interval and of the next one that is neither
 //!    on chip nor on its way ("software-managed": the schedule is known).
