@@ -6,9 +6,10 @@
 //! - this crate does no file I/O and knows nothing of trace files, scenes,
 //!   PNG/EXR files or the command line;
 //! - it never calls the golden model; the golden model never calls its units.
-//!   The two share only the plain data types in [`camera`], [`sample_image`],
-//!   [`cmd`] and [`fixed`], and the fixed mode's format primitives in
-//!   [`qformat`] (each engine applies them in its own code).
+//!   The two share only the plain data types in [`camera`], [`sample_image`]
+//!   and [`cmd`], the fixed mode's format primitives in [`qformat`] (each
+//!   engine applies them in its own code), and the knob machinery
+//!   ([`knob`], [`shared_knobs`]).
 #![warn(missing_docs)]
 
 pub mod bits;
@@ -20,7 +21,6 @@ pub mod config;
 pub mod dest_frame;
 pub mod engine;
 pub mod fifo;
-pub mod fixed;
 pub mod frame_stats;
 pub mod host_hint;
 pub mod hw_reference;

@@ -1,7 +1,8 @@
 //! The golden model: Mark's warper on the CPU, frame at a time, in floating
 //! point, with no notion of cycles. It never imports the hardware model's
 //! units; it shares only the plain data types of `postwarp_rtl` (cameras,
-//! sample images, frame commands, fixed point).
+//! sample images, frame commands), the fixed mode's format primitives
+//! (`qformat`) and the knob machinery (`knob`, `shared_knobs`).
 //!
 //! File names match the hardware units in `rtl-model/src/units/`.
 
