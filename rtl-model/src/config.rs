@@ -249,7 +249,8 @@ pub fn tile_bytes(c: &EngineConfig) -> u64 {
 /// and `min(abuffer_fragments, supersample²)` fragments each, or raw
 /// samples). Meaningful when `tile_size` is a multiple of `supersample`,
 /// which `Engine::new` checks first; it also refuses a source cache smaller
-/// than this (at the trace's super-sampling).
+/// than this (at the trace's super-sampling). The memory map's slots of
+/// reference blocks and packed tiles are this, rounded to bursts.
 pub fn largest_block_bytes(c: &EngineConfig) -> u64 {
     let side = u64::from(c.tile_size / c.supersample.max(1));
     crate::mem::layout::max_packed_bytes(c, side * side)

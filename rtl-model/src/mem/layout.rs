@@ -151,8 +151,9 @@ impl MemoryLayout {
         let burst = cfg.dram_burst_bytes;
         let round = |b: u64| b.div_ceil(burst) * burst;
         let ts = cfg.tile_size;
-        let side = u64::from(ts / cfg.supersample);
-        let packed_slot = round(max_packed_bytes(cfg, side * side));
+        // A reference block and a packed destination tile cover the same
+        // pixels: one slot size for both.
+        let packed_slot = round(crate::config::largest_block_bytes(cfg));
         let grid = |(w, h): (u32, u32)| u64::from(w.div_ceil(ts)) * u64::from(h.div_ceil(ts));
         let mut regions = Vec::with_capacity(references.len() + 2);
         let mut next = 0;
