@@ -3,11 +3,14 @@
 //! `Warper::warp_frame` on one thread N times (argument, default 1), after
 //! preparing its references once and one untimed warm-up run, printing host
 //! seconds per run. For `perf record` or callgrind (`measured` is a symbol
-//! of its own): `cargo run --release --example golden_frame -- 3`.
+//! of its own): `cargo run --release --example golden_frame -- 3`. With
+//! `--phases` after N, it also prints the mean seconds per frame of each
+//! phase (`postwarp::golden::phase_times`).
 
 use postwarp::bench::{BenchFrame, standard_spec};
 use postwarp::golden::config::GoldenConfig;
 use postwarp::golden::frame::{PreparedReference, Warper, prepare_reference};
+use postwarp::golden::phase_times;
 use std::time::Instant;
 
 /// Huge pages for the frame planes (`postwarp::huge_pages`).
@@ -16,6 +19,7 @@ static ALLOC: postwarp::huge_pages::HugePageAlloc = postwarp::huge_pages::HugePa
 
 fn main() {
     let n: usize = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(1);
+    let phases = std::env::args().nth(2).is_some_and(|a| a == "--phases");
     let f = BenchFrame::new(standard_spec()).expect("bench frame");
     let cfg = GoldenConfig::default();
     let refs: Vec<PreparedReference> =
@@ -25,10 +29,18 @@ fn main() {
     let mut warper = Warper::new();
     pool.install(|| {
         measured(&mut warper, &f.cmd, &refs, &cfg);
+        phase_times::enable(phases);
+        phase_times::take();
         for _ in 0..n {
             let t = Instant::now();
             measured(&mut warper, &f.cmd, &refs, &cfg);
             println!("{:.4} s", t.elapsed().as_secs_f64());
+        }
+        if phases {
+            println!("mean seconds per frame by phase ({n} frames):");
+            for (p, s) in phase_times::take() {
+                println!("  {:<16} {:.4}", p.name(), s / n as f64);
+            }
         }
     });
 }

@@ -232,3 +232,32 @@ fn a_streamed_frame_asks_each_reference_once_and_equals_the_frame() {
         .expect_err("the source failed");
     assert_eq!((err.as_str(), asked.as_slice()), ("no reference 1", &[0, 1][..]));
 }
+
+#[test]
+fn timing_phases_changes_no_value_and_times_the_phases_that_ran() {
+    use postwarp::golden::phase_times::{self, Phase};
+    let cfg = GoldenConfig::default();
+    let (a, b) = (at_x(24, 16, -0.1), at_x(24, 16, 0.1));
+    let layers = [background(), Layer { z: 5.0, x0: -0.3, x1: 0.2, colour: red }];
+    let refs = [(a, render(&a, 2, &layers)), (b, render(&b, 2, &layers))];
+    let derived = at_x(24, 16, 0.05);
+    // Other tests may time phases on their own threads; this thread's sums
+    // are its own.
+    phase_times::take();
+    let off = run(&derived, &refs, 2, &cfg);
+    let untimed = phase_times::take();
+    phase_times::enable(true);
+    let on = run(&derived, &refs, 2, &cfg);
+    phase_times::enable(false);
+    let timed = phase_times::take();
+    assert_eq!(on.samples, off.samples);
+    assert_eq!(on.pixels, off.pixels);
+    assert_eq!(on.stats, off.stats);
+    assert!(untimed.iter().all(|&(_, s)| s == 0.0), "nothing timed while off: {untimed:?}");
+    let secs = |p: Phase| timed.iter().find(|(q, _)| *q == p).map(|&(_, s)| s).unwrap();
+    for p in [Phase::Transform, Phase::PhaseA, Phase::PhaseB, Phase::Abuffer, Phase::Resolve] {
+        assert!(secs(p) > 0.0, "{p:?} ran: {timed:?}");
+    }
+    assert_eq!(secs(Phase::General), 0.0, "the anti-aliased path's frame: {timed:?}");
+    assert!(phase_times::take().iter().all(|&(_, s)| s == 0.0), "take resets");
+}

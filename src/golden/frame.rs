@@ -36,6 +36,7 @@ use super::fallback_fill::fallback_fill;
 use super::general;
 use super::hole_fill::{HoleFillParams, HoleFillStats, hole_fill};
 use super::kernel_setup::same_surface;
+use super::phase_times::{Phase, start, stop};
 use super::planes::DestPlanes;
 use super::resolve::resolve;
 use super::transform::{Transformed, WarpContext, backward_neighbour};
@@ -336,6 +337,7 @@ impl Warper {
             }
         }
         let mut unseen = BitVec::repeat(false, ((d.width / ss) * (d.height / ss)) as usize);
+        let t = start();
         if cfg.hole_fill
             && cfg.fallback_fill
             && let Some(last) = cmd.warps.last()
@@ -343,6 +345,7 @@ impl Warper {
         {
             unseen = changed;
         }
+        stop(Phase::FallbackFill, t);
         st.fragments_per_pixel = ab.fragments_per_pixel;
         st.forced_merges = ab.forced_merges;
         st.hole_samples = d.hole.count_ones() as u64;
@@ -350,7 +353,9 @@ impl Warper {
         if self.trim {
             d.drop_cache_planes();
         }
+        let t = start();
         let (pixels, covered) = resolve(&d, ss);
+        stop(Phase::Resolve, t);
         Ok(GoldenFrame { samples: d, pixels, covered, unseen, stats: st })
     }
 }
@@ -380,16 +385,26 @@ impl Work for WarpStep<'_> {
     #[inline(always)]
     fn run(self) {
         let WarpStep { ctx, prepared, source, cfg, epipole, ss, d, st, ab, scratch } = self;
+        let t = start();
         d.begin_warp();
+        stop(Phase::BeginWarp, t);
         match cfg.reconstruction {
             Reconstruction::AaRect => warp_aa::warp_reference(ctx, prepared, source, cfg, d, st, scratch),
-            Reconstruction::General => general::warp_reference_general(ctx, &prepared.samples, source, cfg, d, st),
+            Reconstruction::General => {
+                let t = start();
+                general::warp_reference_general(ctx, &prepared.samples, source, cfg, d, st);
+                stop(Phase::General, t);
+            }
         }
+        let t = start();
         if cfg.hole_fill {
             let hf = hole_fill(d, epipole, &hole_fill_params(cfg));
             add_hole_stats(st, &hf);
         }
+        stop(Phase::HoleFill, t);
+        let t = start();
         round_trip_dest(d, &abuffer_params(ss, cfg), ab);
+        stop(Phase::Abuffer, t);
     }
 }
 

@@ -15,6 +15,7 @@ pub mod frame;
 pub mod general;
 pub mod hole_fill;
 pub mod kernel_setup;
+pub mod phase_times;
 pub mod planes;
 pub mod raster;
 pub mod resolve;

@@ -8,6 +8,7 @@ use super::config::{GoldenConfig, WarpOrder};
 use super::cull;
 use super::frame::{GoldenStats, KERNEL_HIST_MAX, PreparedReference, count_outcomes, forward_edge_neighbour};
 use super::kernel_setup::{GroupState, bounding_box, corners_counted};
+use super::phase_times::{Phase, start, stop};
 use super::planes::DestPlanes;
 use super::raster::{CEIL_I32_RANGE, ceil_i32, rect, rect_of_ranges};
 use super::transform::{BATCH, SampleBatch, Transformed, WarpContext};
@@ -198,10 +199,12 @@ pub(super) fn warp_reference(
     slots.resize(d.len(), EMPTY);
     overflow.clear();
     let mut hist = [[0u64; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1];
+    let t = start();
     transform_row(ctx, prepared, &q, q.y0, &mut rows.warped[0], st);
     if q.y0 < q.y1 {
         transform_row(ctx, prepared, &q, q.y0 + 1, &mut rows.warped[1], st);
     }
+    stop(Phase::Transform, t);
     // Derived slopes, and the better-reference masks when earlier warps
     // have stored samples the kernels may meet (compositing rule 3;
     // otherwise on demand), are computed per row after phase A (`KernelSlopes`).
@@ -209,6 +212,7 @@ pub(super) fn warp_reference(
     let phase_a = PhaseA { ctx, img, prepared, cfg, q, live: &live, size: (d.width, d.height) };
     for y in q.y0..=q.y1 {
         let r = (y - q.y0) as usize;
+        let t = start();
         if y < q.y1 {
             let [a, b] = [&rows.warped[r % 3], &rows.warped[(r + 1) % 3]];
             group_row(a, b, cfg.threshold, &mut rows.groups[r % 2]);
@@ -219,13 +223,20 @@ pub(super) fn warp_reference(
             rows.groups[r % 2].state.fill(GroupState::Missing);
             rows.groups[r % 2].fast.fill(false);
         }
+        stop(Phase::Groups, t);
         if (ry0..=ry1).contains(&y) {
             let first = kernels.len();
+            let t = start();
             phase_a.row(y, rows, kernels, slots, overflow, &mut hist, st);
+            stop(Phase::PhaseA, t);
+            let t = start();
             slopes.row(ctx, img, &rows.warped[r % 3], q.x0, &mut kernels[first..], st);
+            stop(Phase::Slopes, t);
         }
         if y + 2 <= q.y1 {
+            let t = start();
             transform_row(ctx, prepared, &q, y + 2, &mut rows.warped[(r + 2) % 3], st);
+            stop(Phase::Transform, t);
         }
     }
     for (a, b) in st.kernel_sizes.iter_mut().zip(&hist) {
@@ -238,7 +249,10 @@ pub(super) fn warp_reference(
     // Compositing touches only its own sample, so this equals drawing the
     // kernels one by one in warp order (rule 2). The overflow list sorted
     // holds each shared sample's candidates together.
+    let t = start();
     overflow.sort_unstable();
+    stop(Phase::Sort, t);
+    let t = start();
     let b = PhaseB { ctx, prepared, source, slope_tol: cfg.slope_tol, rel_tol: cfg.rel_tol };
     let mut counts = [0u64; OUTCOMES];
     let mut next = 0;
@@ -264,6 +278,7 @@ pub(super) fn warp_reference(
             k => b.draw(d, s, &kernels[k as usize], &mut counts),
         }
     }
+    stop(Phase::PhaseB, t);
     for (k, &n) in counts.iter().enumerate() {
         count_outcomes(st, OUTCOME_ORDER[k], n);
     }
