@@ -349,7 +349,7 @@ impl Warper {
         st.fragments_per_pixel = ab.fragments_per_pixel;
         st.forced_merges = ab.forced_merges;
         st.hole_samples = d.hole.count_ones() as u64;
-        st.empty_samples = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count() as u64;
+        st.empty_samples = d.empty_count() as u64;
         if self.trim {
             d.drop_cache_planes();
         }
@@ -419,7 +419,7 @@ fn fallback(
     st: &mut GoldenStats,
     ab: &mut AbufferStats,
 ) -> Option<BitVec> {
-    if d.real.iter().zip(d.hole.iter()).all(|(r, h)| *r || *h) {
+    if d.empty_count() == 0 {
         return None;
     }
     let (fb, filled) = fallback_fill(d, e, &hole_fill_params(cfg));

@@ -89,6 +89,21 @@ impl DestPlanes {
         self.colour.is_empty()
     }
 
+    /// Empty samples (neither real nor hole fill), counted a word of each
+    /// flag plane at a time.
+    pub fn empty_count(&self) -> usize {
+        let (n, bits) = (self.len(), usize::BITS as usize);
+        let words = self.real.as_raw_slice().iter().zip(self.hole.as_raw_slice());
+        words
+            .enumerate()
+            .map(|(w, (&real, &hole))| {
+                let live = n.saturating_sub(w * bits).min(bits);
+                let mask = if live == bits { !0 } else { (1usize << live) - 1 };
+                (!(real | hole) & mask).count_ones() as usize
+            })
+            .sum()
+    }
+
     /// Clear the mesh/splat plane: every stored sample counts as mesh (after
     /// a trip through the A-buffer, which does not keep the bit).
     pub fn forget_splats(&mut self) {
@@ -129,6 +144,22 @@ impl DestPlanes {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn empty_count_counts_samples_neither_real_nor_hole() {
+        // Whole words, and a partial last word whose spare bits (clear in
+        // both planes) are no samples.
+        for (w, h) in [(8, 8), (13, 11), (64, 2), (1, 1)] {
+            let mut d = DestPlanes::new(w, h);
+            for i in 0..d.len() {
+                d.real.set(i, i % 3 == 0);
+                d.hole.set(i, i % 5 == 1);
+            }
+            let want = (0..d.len()).filter(|&i| !d.real[i] && !d.hole[i]).count();
+            assert!(want > 0 || d.len() == 1, "{w}x{h}");
+            assert_eq!(d.empty_count(), want, "{w}x{h}");
+        }
+    }
 
     #[test]
     fn begin_warp_seeds_the_fill_planes_from_real_samples() {
