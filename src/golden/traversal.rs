@@ -138,9 +138,12 @@ pub fn order(width: u32, height: u32, epipole: &Epipole) -> Vec<(u32, u32)> {
 /// backwards; sorted by [`OrderKey::warp_key`].
 pub fn warp_order(width: u32, height: u32, epipole: &Epipole) -> Vec<(u32, u32)> {
     let keys = OrderKey::new(width, height, epipole);
-    let mut o = order(width, height, epipole);
-    o.sort_by_key(|&(x, y)| keys.warp_key(x, y));
-    o
+    // Warp keys are distinct (a bijection of the keys, one per sample):
+    // each computed once, any sort gives the order.
+    let mut out: Vec<(u64, (u32, u32))> = Vec::with_capacity(width as usize * height as usize);
+    visit(width, height, epipole, |_, x, y| out.push((keys.warp_key(x, y), (x, y))));
+    out.sort_unstable_by_key(|e| e.0);
+    out.into_iter().map(|e| e.1).collect()
 }
 
 /// The sweep of octant number `sheet` (rule 5) and which of its two
