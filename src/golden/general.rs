@@ -300,6 +300,12 @@ fn mesh_triangle(
     if !(area2 > 0.0 && area2.is_finite()) {
         return;
     }
+    let (x0, x1, y0, y1) = bounding_box(&[p[0], p[1], p[2], p[2]]);
+    let win =
+        intersect(((x0.ceil() as i64, x1.floor() as i64), (y0.ceil() as i64, y1.floor() as i64)), (d.width, d.height));
+    if win.0.0 > win.0.1 || win.1.0 > win.1.1 {
+        return; // no centre in the box (most triangles of a minified surface)
+    }
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let grad =
         DVec2::new((z[1] - z[0]) * e2.y - (z[2] - z[0]) * e1.y, (z[2] - z[0]) * e1.x - (z[1] - z[0]) * e2.x) / area2;
@@ -307,14 +313,26 @@ fn mesh_triangle(
     let mask = better[tri[0]] & better[tri[1]] & better[tri[2]];
     let colour = tri.map(|k| img.colour[k]);
     let fills = tri.map(|k| fill[k]);
-    let (x0, x1, y0, y1) = bounding_box(&[p[0], p[1], p[2], p[2]]);
-    let win =
-        intersect(((x0.ceil() as i64, x1.floor() as i64), (y0.ceil() as i64, y1.floor() as i64)), (d.width, d.height));
     triangle(p, win, |sx, sy, wts| {
-        let b = (0..3).fold(0, |b, k| if wts[k] > wts[b] { k } else { b });
-        let lerp3 = |v: [f64; 3]| v[b] + (0..3).filter(|&k| k != b).map(|k| wts[k] * (v[k] - v[b])).sum::<f64>();
-        let rgb =
-            |c: [[f32; 3]; 3]| [0, 1, 2].map(|ch| lerp3([c[0][ch] as f64, c[1][ch] as f64, c[2][ch] as f64]) as f32);
+        // The vertex of largest weight (the first of equals), then the
+        // other two in index order.
+        let mut b = 0;
+        if wts[1] > wts[0] {
+            b = 1;
+        }
+        if wts[2] > wts[b] {
+            b = 2;
+        }
+        let (k1, k2) = match b {
+            0 => (1, 2),
+            1 => (0, 2),
+            _ => (0, 1),
+        };
+        let lerp3 = |v: [f64; 3]| v[b] + [wts[k1] * (v[k1] - v[b]), wts[k2] * (v[k2] - v[b])].into_iter().sum::<f64>();
+        let rgb = |c: [[f32; 3]; 3]| {
+            let channel = |i: usize| lerp3([c[0][i] as f64, c[1][i] as f64, c[2][i] as f64]) as f32;
+            [channel(0), channel(1), channel(2)]
+        };
         let cand = Candidate {
             colour: rgb(colour),
             inv_z: lerp3(z) as f32,
@@ -339,14 +357,6 @@ fn intersect(win: Window, size: (u32, u32)) -> Window {
     ((x0.max(0), x1.min(size.0 as i64 - 1)), (y0.max(0), y1.min(size.1 as i64 - 1)))
 }
 
-/// Edge function `cross(v − u, p − u)`, evaluated from the endpoints in
-/// canonical order so that `edge(u, v, p) == −edge(v, u, p)` exactly
-/// (rule 3).
-fn edge(u: DVec2, v: DVec2, p: DVec2) -> f64 {
-    let (a, b, s) = if (u.x, u.y) <= (v.x, v.y) { (u, v, 1.0) } else { (v, u, -1.0) };
-    s * ((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x))
-}
-
 /// Rule 3's tie-break: the edge `u→v` owns the centres on it.
 fn top_left(u: DVec2, v: DVec2) -> bool {
     let d = v - u;
@@ -365,16 +375,43 @@ pub fn triangle(v: [DVec2; 3], win: Window, mut f: impl FnMut(u32, u32, [f64; 3]
     // Edge k is opposite vertex k: (v1→v2), (v2→v0), (v0→v1).
     let edges = [(v[1], v[2]), (v[2], v[0]), (v[0], v[1])];
     let owns = edges.map(|(u, w)| top_left(u, w));
+    // `edge`'s canonical order depends on the endpoints only: chosen once.
+    let [e0, e1, e2] = edges.map(|(u, w)| Edge::new(u, w));
+    let inside = |e: f64, owns: bool| e > 0.0 || (e == 0.0 && owns);
     let ((x0, x1), (y0, y1)) = win;
     for y in y0..=y1 {
         for x in x0..=x1 {
             let p = DVec2::new(x as f64, y as f64);
-            let e = edges.map(|(u, w)| edge(u, w, p));
-            if (0..3).all(|k| e[k] > 0.0 || (e[k] == 0.0 && owns[k])) {
-                let sum = e[0] + e[1] + e[2];
-                f(x as u32, y as u32, e.map(|ek| ek / sum));
+            let (a, b, c) = (e0.at(p), e1.at(p), e2.at(p));
+            if inside(a, owns[0]) && inside(b, owns[1]) && inside(c, owns[2]) {
+                let sum = a + b + c;
+                f(x as u32, y as u32, [a / sum, b / sum, c / sum]);
             }
         }
+    }
+}
+
+/// Edge function `cross(v − u, p − u)`, evaluated from the endpoints in
+/// canonical order so that the edge `u→v` gives exactly the negation of
+/// `v→u` (rule 3); the order is fixed once per triangle.
+#[derive(Clone, Copy)]
+struct Edge {
+    a: DVec2,
+    b: DVec2,
+    sign: f64,
+}
+
+impl Edge {
+    fn new(u: DVec2, v: DVec2) -> Edge {
+        let (a, b, sign) = if (u.x, u.y) <= (v.x, v.y) { (u, v, 1.0) } else { (v, u, -1.0) };
+        Edge { a, b, sign }
+    }
+
+    /// The edge function at `p`.
+    #[inline(always)]
+    fn at(&self, p: DVec2) -> f64 {
+        let (a, b) = (self.a, self.b);
+        self.sign * ((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x))
     }
 }
 
