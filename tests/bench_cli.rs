@@ -76,4 +76,25 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
     // The vector level the golden rows ran at is named.
     assert!(head.contains("golden warps at vector level "), "{head}");
     assert!(text.lines().any(|l| l.starts_with("golden at the baseline level: ")), "{text}");
+    // The golden frame by phase: every phase named once with its mean ms;
+    // the warp's own phases took time, the general path's none.
+    let split = text
+        .lines()
+        .find_map(|l| l.split_once("frames: ").filter(|(h, _)| h.starts_with("engine golden by phase, mean ms")))
+        .map(|(_, s)| s)
+        .expect("the phase line");
+    let phases: Vec<(&str, f64)> = split
+        .split(", ")
+        .map(|p| {
+            let (name, ms) = p.rsplit_once(' ').expect("name and ms");
+            (name, ms.parse().expect("ms"))
+        })
+        .collect();
+    let names: Vec<&str> = postwarp::golden::phase_times::Phase::ALL.iter().map(|p| p.name()).collect();
+    assert_eq!(phases.iter().map(|p| p.0).collect::<Vec<_>>(), names, "{split}");
+    let ms = |n: &str| phases.iter().find(|p| p.0 == n).map(|p| p.1).expect(n);
+    for n in ["transform", "phase A", "phase B", "A-buffer"] {
+        assert!(ms(n) > 0.0, "{n}: {split}");
+    }
+    assert_eq!(ms("general warp"), 0.0, "{split}");
 }

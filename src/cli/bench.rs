@@ -31,10 +31,14 @@
 //!    size ([`crate::bench::hmd_spec`]; 200x200 with `--quick`), written
 //!    into the scratch directory and deleted after (the peak RSS of the
 //!    headset case).
+//! 5. The last line splits `engine golden` by phase
+//!    (`golden::phase_times`): the mean over `--repeats` more frames with
+//!    the phase timers on, run after its row so that the row holds no timer.
 
 use crate::bench::{BenchFrame, quick_spec, standard_spec};
 use crate::golden::config::GoldenConfig;
 use crate::golden::frame::{PreparedReference, Warper, inv_z_plane, prepare_reference};
+use crate::golden::phase_times;
 use crate::golden::vector_level::VectorLevel;
 use crate::methods::baselines::forward_splat::forward_splat_with;
 use crate::trace::Trace;
@@ -291,6 +295,21 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         Ok(Row { what: what.into(), input: frame_name.clone(), threads: 1, times: t, samples: valid, peak: None })
     };
     rows.push(time_golden(false)?);
+    // Where its time goes: as many frames again with the phase timers on
+    // (after the row, so its figures hold no timer).
+    let phases = {
+        let refs: Vec<&PreparedReference> = prepared.iter().collect();
+        let mut warper = Warper::new();
+        pool.install(|| {
+            phase_times::enable(true);
+            phase_times::take();
+            for _ in 0..repeats {
+                black_box(warper.warp_frame(&frame.cmd, &refs, &gcfg));
+            }
+            phase_times::enable(false);
+            phase_times::take()
+        })
+    };
     {
         let refs: Vec<&SampleImage> = prepared.iter().map(|p| &p.samples).collect();
         // The splat's input: each reference's 1/Z plane, made outside the timing.
@@ -401,5 +420,8 @@ pub fn run(a: Args) -> anyhow::Result<()> {
         level.name(),
         rows[0].times.best / baseline
     );
+    let split: Vec<String> =
+        phases.iter().map(|(p, s)| format!("{} {:.2}", p.name(), s * 1e3 / repeats as f64)).collect();
+    println!("engine golden by phase, mean ms per frame over {repeats} more frames: {}", split.join(", "));
     Ok(())
 }
