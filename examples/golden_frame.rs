@@ -31,16 +31,22 @@ fn main() {
         measured(&mut warper, &f.cmd, &refs, &cfg);
         phase_times::enable(phases);
         phase_times::take();
+        let mut total = 0.0;
         for _ in 0..n {
             let t = Instant::now();
             measured(&mut warper, &f.cmd, &refs, &cfg);
-            println!("{:.4} s", t.elapsed().as_secs_f64());
+            let s = t.elapsed().as_secs_f64();
+            total += s;
+            println!("{s:.4} s");
         }
         if phases {
             println!("mean seconds per frame by phase ({n} frames):");
-            for (p, s) in phase_times::take() {
+            let split = phase_times::take();
+            for (p, s) in split {
                 println!("  {:<16} {:.4}", p.name(), s / n as f64);
             }
+            let other = total - split.iter().map(|p| p.1).sum::<f64>();
+            println!("  {:<16} {:.4}", phase_times::OTHER, other.max(0.0) / n as f64);
         }
     });
 }

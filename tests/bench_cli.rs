@@ -90,8 +90,10 @@ fn bench_quick_prints_every_row_with_positive_numbers() {
             (name, ms.parse().expect("ms"))
         })
         .collect();
-    let names: Vec<&str> = postwarp::golden::phase_times::Phase::ALL.iter().map(|p| p.name()).collect();
+    let mut names: Vec<&str> = postwarp::golden::phase_times::Phase::ALL.iter().map(|p| p.name()).collect();
+    names.push(postwarp::golden::phase_times::OTHER);
     assert_eq!(phases.iter().map(|p| p.0).collect::<Vec<_>>(), names, "{split}");
+    assert!(phases.iter().all(|p| p.1 >= 0.0), "{split}");
     let ms = |n: &str| phases.iter().find(|p| p.0 == n).map(|p| p.1).expect(n);
     for n in ["transform", "phase A", "phase B", "A-buffer"] {
         assert!(ms(n) > 0.0, "{n}: {split}");

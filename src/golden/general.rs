@@ -375,7 +375,7 @@ pub fn triangle(v: [DVec2; 3], win: Window, mut f: impl FnMut(u32, u32, [f64; 3]
     // Edge k is opposite vertex k: (v1→v2), (v2→v0), (v0→v1).
     let edges = [(v[1], v[2]), (v[2], v[0]), (v[0], v[1])];
     let owns = edges.map(|(u, w)| top_left(u, w));
-    // `edge`'s canonical order depends on the endpoints only: chosen once.
+    // An edge's canonical order depends on its endpoints only: chosen once.
     let [e0, e1, e2] = edges.map(|(u, w)| Edge::new(u, w));
     let inside = |e: f64, owns: bool| e > 0.0 || (e == 0.0 && owns);
     let ((x0, x1), (y0, y1)) = win;

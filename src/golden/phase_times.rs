@@ -13,12 +13,16 @@ use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-/// A phase of one derived frame, in the order a warp runs them.
+/// A phase of one derived frame, in the order a frame runs them (the
+/// first nine once per warp, the last two once per frame). What no phase
+/// times (the frame's planes allocated, a warp's set-up, the counters
+/// summed) is the frame's time less theirs: [`OTHER`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
     /// Cache-only hole-fill planes reset before each warp (`DestPlanes::begin_warp`).
     BeginWarp,
-    /// Phase 1: the 3D warp of every sample of the live region.
+    /// Phase 1: the 3D warp of every sample of the live region and its
+    /// one-sample ring.
     Transform,
     /// Phase 2: the 2x2 groups' discontinuity and fold tests, shared corners.
     Groups,
@@ -36,7 +40,8 @@ pub enum Phase {
     HoleFill,
     /// The frame's trip through the A-buffer after each warp.
     Abuffer,
-    /// The fallback pass after the last warp.
+    /// The fallback pass after the last warp, with the A-buffer trip of
+    /// the pixels it changed.
     FallbackFill,
     /// Samples resolved to display pixels.
     Resolve,
@@ -77,6 +82,9 @@ impl Phase {
         }
     }
 }
+
+/// Name printed for the rest of a frame's time, outside every phase.
+pub const OTHER: &str = "other";
 
 static ON: AtomicBool = AtomicBool::new(false);
 

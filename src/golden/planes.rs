@@ -90,7 +90,8 @@ impl DestPlanes {
     }
 
     /// Empty samples (neither real nor hole fill), counted a word of each
-    /// flag plane at a time.
+    /// flag plane at a time (the planes start at bit 0 of their first word,
+    /// as `BitVec::repeat` makes them; `begin_warp` assumes the same).
     pub fn empty_count(&self) -> usize {
         let (n, bits) = (self.len(), usize::BITS as usize);
         let words = self.real.as_raw_slice().iter().zip(self.hole.as_raw_slice());
