@@ -86,7 +86,7 @@ use super::frame::{GoldenStats, KERNEL_HIST_MAX, count_outcome, forward_edge_nei
 use super::kernel_setup::{GroupState, bounding_box, folded, group};
 use super::planes::DestPlanes;
 use super::raster::{clip, covered};
-use super::transform::{Transformed, WarpContext};
+use super::transform::{BATCH, SampleBatch, Transformed, WarpContext};
 use super::traversal;
 use glam::DVec2;
 use postwarp_rtl::SampleImage;
@@ -139,15 +139,7 @@ pub fn warp_reference_general_with(
         st.kernel_sizes = vec![vec![0; KERNEL_HIST_MAX + 1]; KERNEL_HIST_MAX + 1];
     }
     let (w, h) = (img.width, img.height);
-    let warped: Vec<Option<Transformed>> = (0..img.len())
-        .map(|i| {
-            if !img.valid[i] {
-                return None;
-            }
-            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
-            ctx.transform(x, y, 1.0 / img.z[i] as f64)
-        })
-        .collect();
+    let warped = warp_all(ctx, img);
     let valid = img.valid.count_ones() as u64;
     st.reference_samples += valid;
     st.culled_samples += valid - warped.iter().filter(|t| t.is_some()).count() as u64;
@@ -171,12 +163,11 @@ pub fn warp_reference_general_with(
     };
 
     // Per warped sample: better mask and hole-fill colour (frame rule 4).
-    let mut better = vec![0u32; img.len()];
+    let better = better_masks(ctx, img, &warped);
     let mut fill = vec![[0.0f32; 3]; img.len()];
     for (i, t) in warped.iter().enumerate() {
         let Some(t) = t else { continue };
         let (x, y) = ((i % w as usize) as u32, (i / w as usize) as u32);
-        better[i] = ctx.better_mask(x as f64, y as f64, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]);
         fill[i] = match forward_edge_neighbour(ctx, img, |x, y| warped[(y * w + x) as usize], t, x, y, cfg.threshold) {
             Some(k) => {
                 st.forward_edges += 1;
@@ -277,6 +268,67 @@ pub fn warp_reference_general_with(
             }
         }
     }
+}
+
+/// Every sample warped ([`WarpContext::transform`]; `None` where invalid,
+/// behind the derived camera or not finite), a row at a time in batches
+/// (`transform_batch`: the same operations; the fixed mode's warp one
+/// sample at a time).
+fn warp_all(ctx: &WarpContext, img: &SampleImage) -> Vec<Option<Transformed>> {
+    let (w, h) = (img.width as usize, img.height as usize);
+    if ctx.fixed().is_some() {
+        return (0..img.len())
+            .map(|i| {
+                let (x, y) = ((i % w) as f64, (i / w) as f64);
+                img.valid[i].then(|| ctx.transform(x, y, 1.0 / img.z[i] as f64)).flatten()
+            })
+            .collect();
+    }
+    let mut out = Vec::with_capacity(img.len());
+    let (mut inv_z, mut warp, mut ok) = ([0.0; BATCH], [[0.0; 4]; BATCH], [false; BATCH]);
+    for y in 0..h {
+        for x0 in (0..w).step_by(BATCH) {
+            let (i0, m) = (y * w + x0, (w - x0).min(BATCH));
+            for (v, &z) in inv_z[..m].iter_mut().zip(&img.z[i0..i0 + m]) {
+                *v = 1.0 / z as f64;
+            }
+            ctx.transform_batch(x0 as f64, y as f64, &inv_z[..m], &mut warp[..m], &mut ok[..m]);
+            for k in 0..m {
+                let [px, py, inv_z, e] = warp[k];
+                let t = Transformed { pos: DVec2::new(px, py), inv_z, e, sat: 0 };
+                out.push((img.valid[i0 + k] & ok[k]).then_some(t));
+            }
+        }
+    }
+    out
+}
+
+/// Every warped sample's better-reference mask
+/// ([`WarpContext::better_mask`]; 0 where not warped), a row at a time in
+/// batches (`better_mask_batch`: the same operations).
+fn better_masks(ctx: &WarpContext, img: &SampleImage, warped: &[Option<Transformed>]) -> Vec<u32> {
+    let (w, h) = (img.width as usize, img.height as usize);
+    let mut out = vec![0u32; img.len()];
+    let mut batch = Box::<SampleBatch>::default();
+    for y in 0..h {
+        for x0 in (0..w).step_by(BATCH) {
+            let (i0, m) = (y * w + x0, (w - x0).min(BATCH));
+            for k in 0..m {
+                let i = i0 + k;
+                batch.x[k] = (x0 + k) as f64;
+                batch.y[k] = y as f64;
+                batch.inv_z[k] = 1.0 / img.z[i] as f64;
+                batch.sx[k] = img.inv_z_slopes[i][0] as f64;
+                batch.sy[k] = img.inv_z_slopes[i][1] as f64;
+            }
+            let masks = &mut out[i0..i0 + m];
+            ctx.better_mask_batch(&mut batch, masks);
+            for (mask, t) in masks.iter_mut().zip(&warped[i0..i0 + m]) {
+                *mask = if t.is_some() { *mask } else { 0 };
+            }
+        }
+    }
+    out
 }
 
 /// Rasterize and composite one mesh triangle (rules 2–4); `tri` holds the
@@ -418,6 +470,57 @@ impl Edge {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn batched_warps_and_masks_give_the_per_sample_forms_bits() {
+        use glam::{DQuat, DVec3};
+        use postwarp_rtl::{Camera, Intrinsics, Pose, WarpSetup};
+        // Rows wider than a batch (a whole one and a partial one), a
+        // rotated and shifted derived camera, three centres; some samples
+        // invalid, some behind the derived camera, some at infinity.
+        let (w, h) = (300u32, 7u32);
+        let s = Camera {
+            intrinsics: Intrinsics { width: w, height: h, fx: 180.0, fy: 180.0, cx: 149.5, cy: 3.5 },
+            pose: Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY },
+        };
+        let d = Camera {
+            intrinsics: Intrinsics { width: 200, height: 9, fx: 150.0, fy: 151.0, cx: 99.5, cy: 4.5 },
+            pose: Pose {
+                position: DVec3::new(0.3, -0.2, 0.9),
+                orientation: DQuat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1),
+            },
+        };
+        let centres = vec![s.pose.position, d.pose.position, DVec3::new(-1.0, 0.5, 2.0)];
+        let ctx = WarpContext::new(WarpSetup::new(&s, &d), s, d, centres, 0, 0.05);
+        let mut img = SampleImage::empty(w, h);
+        let mut seed = 0x9e3779b97f4a7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for i in 0..img.len() {
+            img.valid.set(i, next() > 0.1);
+            img.z[i] = if next() < 0.03 { f32::INFINITY } else { (0.3 + next() * 20.0) as f32 };
+            img.inv_z_slopes[i] = [((next() - 0.5) * 0.2) as f32, ((next() - 0.5) * 0.2) as f32];
+        }
+        let warped = warp_all(&ctx, &img);
+        let masks = better_masks(&ctx, &img, &warped);
+        let bits = |t: &Option<Transformed>| t.map(|t| [t.pos.x, t.pos.y, t.inv_z, t.e].map(f64::to_bits));
+        let (mut some, mut set) = (0, 0);
+        for i in 0..img.len() {
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            let want = if img.valid[i] { ctx.transform(x, y, 1.0 / img.z[i] as f64) } else { None };
+            assert_eq!(bits(&warped[i]), bits(&want), "sample {i}");
+            let mask = want.map_or(0, |_| ctx.better_mask(x, y, 1.0 / img.z[i] as f64, img.inv_z_slopes[i]));
+            assert_eq!(masks[i], mask, "sample {i}");
+            some += want.is_some() as usize;
+            set += (mask != 0) as usize;
+        }
+        assert!(some > img.len() / 2 && some < img.len(), "samples warped and not: {some}");
+        assert!(set > 0 && set < some, "masks set and clear: {set}");
+    }
 
     fn cover(tris: &[[DVec2; 3]], n: i64) -> Vec<u32> {
         let mut hits = vec![0u32; (n * n) as usize];
