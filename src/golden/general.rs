@@ -95,6 +95,9 @@ use postwarp_rtl::SampleImage;
 /// surface is poorly sampled (density below 1/2 of the nominal 1.0).
 pub const POOR_FOOTPRINT: f64 = 2.0;
 
+/// A group that is not meshed, in the table of which sample draws each.
+const NOT_MESHED: u8 = u8::MAX;
+
 /// Switches for experiments and tests; the model is both on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct GeneralOptions {
@@ -182,26 +185,40 @@ pub fn warp_reference_general_with(
     } else {
         traversal::order(w, h, &ctx.setup.epipole_reference)
     };
-    let mut rank = vec![0usize; img.len()];
+    let mut rank = vec![0u32; img.len()];
     for (k, &(x, y)) in order.iter().enumerate() {
-        rank[img.index(x, y)] = k;
+        rank[img.index(x, y)] = k as u32;
     }
+    // Rule 10: per meshed group, which of its samples (0–3: A, B, C, D)
+    // comes last in the order and so draws it; [`NOT_MESHED`] otherwise.
+    // Found in raster order here, so that the walk in warp order reads a
+    // byte per group instead of four ranks.
+    let mut last = vec![NOT_MESHED; meshed.len()];
+    for gy in 0..h.saturating_sub(1) {
+        for gx in 0..gw {
+            let g = (gy * gw + gx) as usize;
+            if meshed[g] {
+                let quad = [img.index(gx, gy), img.index(gx + 1, gy), img.index(gx, gy + 1), img.index(gx + 1, gy + 1)];
+                // Ranks are distinct: one sample is last.
+                last[g] = (0..4).max_by_key(|&c| rank[quad[c]]).expect("four corners") as u8;
+            }
+        }
+    }
+    drop(rank);
 
     let size = (d.width, d.height);
     for &(x, y) in &order {
         let i = img.index(x, y);
         let Some(t) = warped[i] else { continue };
         let (xi, yi) = (x as i64, y as i64);
-        // Rule 10: the meshed groups this sample completes.
-        for (gx, gy) in [(xi - 1, yi - 1), (xi, yi - 1), (xi - 1, yi), (xi, yi)] {
-            if !is_meshed(gx, gy) {
+        // Rule 10: the meshed groups this sample completes (it is corner
+        // D, C, B and A of these four).
+        for (corner, (gx, gy)) in [(xi - 1, yi - 1), (xi, yi - 1), (xi - 1, yi), (xi, yi)].into_iter().enumerate() {
+            if !is_meshed(gx, gy) || last[(gy as u32 * gw + gx as u32) as usize] != 3 - corner as u8 {
                 continue;
             }
             let (gx, gy) = (gx as u32, gy as u32);
             let quad = [img.index(gx, gy), img.index(gx + 1, gy), img.index(gx, gy + 1), img.index(gx + 1, gy + 1)];
-            if quad.iter().map(|&k| rank[k]).max() != Some(rank[i]) {
-                continue;
-            }
             let [a, b, c, dd] = quad;
             for tri in [[a, b, dd], [a, dd, c]] {
                 st.mesh_triangles += 1;
