@@ -490,33 +490,19 @@ mod tests {
 
     #[test]
     fn batched_warps_and_masks_give_the_per_sample_forms_bits() {
+        use crate::golden::transform::{scrambled_context, unit_random};
         use glam::{DQuat, DVec3};
-        use postwarp_rtl::{Camera, Intrinsics, Pose, WarpSetup};
+        use postwarp_rtl::{Camera, Intrinsics, Pose};
         // Rows wider than a batch (a whole one and a partial one), a
         // rotated and shifted derived camera, three centres; some samples
         // invalid, some behind the derived camera, some at infinity.
         let (w, h) = (300u32, 7u32);
-        let s = Camera {
+        let ctx = scrambled_context(Camera {
             intrinsics: Intrinsics { width: w, height: h, fx: 180.0, fy: 180.0, cx: 149.5, cy: 3.5 },
             pose: Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY },
-        };
-        let d = Camera {
-            intrinsics: Intrinsics { width: 200, height: 9, fx: 150.0, fy: 151.0, cx: 99.5, cy: 4.5 },
-            pose: Pose {
-                position: DVec3::new(0.3, -0.2, 0.9),
-                orientation: DQuat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1),
-            },
-        };
-        let centres = vec![s.pose.position, d.pose.position, DVec3::new(-1.0, 0.5, 2.0)];
-        let ctx = WarpContext::new(WarpSetup::new(&s, &d), s, d, centres, 0, 0.05);
+        });
         let mut img = SampleImage::empty(w, h);
-        let mut seed = 0x9e3779b97f4a7c15u64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = unit_random(0x9e3779b97f4a7c15);
         for i in 0..img.len() {
             img.valid.set(i, next() > 0.1);
             img.z[i] = if next() < 0.03 { f32::INFINITY } else { (0.3 + next() * 20.0) as f32 };

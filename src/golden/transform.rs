@@ -549,6 +549,35 @@ pub fn backward_neighbour(epipole: &Epipole, x: f64, y: f64) -> Option<(i32, i32
     })
 }
 
+/// A context warping from reference camera `s` (at the origin of the
+/// centres) to a rotated, shifted derived camera, with three centres: for
+/// tests that compare two forms of the per-sample arithmetic.
+#[cfg(test)]
+pub(crate) fn scrambled_context(s: Camera) -> WarpContext {
+    use glam::DQuat;
+    use postwarp_rtl::{Intrinsics, Pose};
+    let d = Camera {
+        intrinsics: Intrinsics { width: 80, height: 60, fx: 52.0, fy: 51.0, cx: 39.5, cy: 29.5 },
+        pose: Pose {
+            position: DVec3::new(0.3, -0.2, 0.9),
+            orientation: DQuat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1),
+        },
+    };
+    let centres = vec![s.pose.position, d.pose.position, DVec3::new(-1.0, 0.5, 2.0)];
+    WarpContext::new(WarpSetup::new(&s, &d), s, d, centres, 0, 0.05)
+}
+
+/// Pseudo-random numbers in [0, 1) from `seed` (xorshift64), for tests.
+#[cfg(test)]
+pub(crate) fn unit_random(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -716,23 +745,8 @@ mod tests {
     /// A context with a rotated, shifted derived camera and three centres,
     /// and pseudo-random samples (some behind the camera, some edge-on).
     fn scrambled() -> (WarpContext, Vec<Sample>) {
-        let s = cam(0.0);
-        let d = Camera {
-            intrinsics: Intrinsics { width: 80, height: 60, fx: 52.0, fy: 51.0, cx: 39.5, cy: 29.5 },
-            pose: Pose {
-                position: DVec3::new(0.3, -0.2, 0.9),
-                orientation: DQuat::from_euler(glam::EulerRot::YXZ, 0.4, -0.2, 0.1),
-            },
-        };
-        let centres = vec![s.pose.position, d.pose.position, DVec3::new(-1.0, 0.5, 2.0)];
-        let c = WarpContext::new(WarpSetup::new(&s, &d), s, d, centres, 0, 0.05);
-        let mut seed = 0x2545f4914f6cdd1du64;
-        let mut next = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let c = scrambled_context(cam(0.0));
+        let mut next = unit_random(0x2545f4914f6cdd1d);
         let samples = (0..3000)
             .map(|_| {
                 let (x, y) = ((next() * 64.0).floor(), (next() * 48.0).floor());
